@@ -1,0 +1,1 @@
+"""Point cloud → ground model → tiles → database."""

@@ -1,0 +1,233 @@
+"""The one reader of point clouds: LAS/LAZ (laspy + lazrs), ISPRS-style text, arrays.
+
+Every reader returns a :class:`tdb.cloud.PointCloud` in the file's own units;
+:func:`tdb.units.to_metres` converts. LAS/LAZ is read in chunks into
+preallocated arrays, so memory is what is kept, not what is decoded.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+from typing import Any
+
+import laspy
+import numpy as np
+
+from tdb.cloud import PointCloud, check_finite, check_spread, from_arrays
+from tdb.errors import FormatError, InputError, TdbIOError
+from tdb.options import LabelScheme, parse
+from tdb.units import as_crs
+
+LAS_SUFFIXES = (".las", ".laz")
+TEXT_SUFFIXES = (".txt", ".xyz", ".csv", ".pts")
+
+
+def read(
+    path: str | os.PathLike[str],
+    *,
+    crs: Any = None,
+    labels: str | LabelScheme = LabelScheme.ASPRS,
+    chunk_size: int = 1_000_000,
+    validate: bool = True,
+) -> PointCloud:
+    """Read a point cloud from a LAS/LAZ or text file.
+
+    Parameters
+    ----------
+    path : a ``.las``/``.laz`` file, or a text file of ``x y z [label]`` rows.
+    crs : overrides (or supplies) the file's coordinate system.
+    labels : meaning of a text file's fourth column (see :class:`LabelScheme`).
+    chunk_size : points decoded at a time from LAS/LAZ.
+    validate : check for NaN/infinite coordinates and degenerate spread.
+
+    Raises
+    ------
+    TdbIOError
+        If the file is missing or unreadable.
+    FormatError
+        If the file is truncated, corrupt or malformed.
+    InputError
+        If it holds no points, non-finite coordinates, or points spanning no area.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise TdbIOError(f"{p}: no such file")
+    if not p.is_file():
+        raise TdbIOError(f"{p}: not a file")
+    if not os.access(p, os.R_OK):
+        raise TdbIOError(f"{p}: permission denied")
+    if _is_las(p):
+        cloud = _read_las(p, chunk_size=chunk_size)
+    else:
+        cloud = _read_text(p, labels=parse(LabelScheme, labels))
+    if crs is not None:
+        from dataclasses import replace
+
+        cloud = replace(cloud, crs=as_crs(crs))
+    if validate:
+        check_finite(cloud)
+        check_spread(cloud)
+    return cloud
+
+
+def _is_las(path: Path) -> bool:
+    with path.open("rb") as fh:
+        return fh.read(4) == b"LASF"
+
+
+def _read_las(path: Path, *, chunk_size: int) -> PointCloud:
+    try:
+        reader = laspy.open(path)
+    except Exception as exc:  # the parser raises struct, value, lazrs... errors on bad bytes
+        raise FormatError(f"{path}: not a readable LAS/LAZ file ({exc})") from None
+    with reader:
+        header = reader.header
+        n = int(header.point_count)
+        if n == 0:
+            raise InputError(f"{path}: no points")
+        _check_las_size(path, header, n)
+        dims = set(header.point_format.dimension_names)
+        xyz = np.empty((n, 3), np.float64)
+        cls = np.empty(n, np.uint8)
+        rn = np.empty(n, np.uint8)
+        nr = np.empty(n, np.uint8)
+        inten = np.empty(n, np.uint16) if "intensity" in dims else None
+        at = 0
+        try:
+            for chunk in reader.chunk_iterator(chunk_size):
+                m = len(chunk)
+                if m == 0:
+                    break
+                stop = min(at + m, n)
+                take = stop - at
+                xyz[at:stop, 0] = np.asarray(chunk.x[:take])
+                xyz[at:stop, 1] = np.asarray(chunk.y[:take])
+                xyz[at:stop, 2] = np.asarray(chunk.z[:take])
+                cls[at:stop] = np.asarray(chunk.classification[:take])
+                rn[at:stop] = np.asarray(chunk.return_number[:take])
+                nr[at:stop] = np.asarray(chunk.number_of_returns[:take])
+                if inten is not None:
+                    inten[at:stop] = np.asarray(chunk.intensity[:take])
+                at = stop
+                if at >= n:
+                    break
+        except Exception as exc:  # as above: any decoder failure means corrupt data
+            raise FormatError(f"{path}: corrupt or truncated point data ({exc})") from None
+        if at < n:
+            raise FormatError(f"{path}: truncated; header promises {n} points, file holds {at}")
+        _check_header_bounds(path, header, xyz)
+        try:
+            crs = header.parse_crs()
+        except Exception as exc:  # laspy raises several types for odd CRS records
+            raise FormatError(f"{path}: unreadable coordinate system record ({exc})") from None
+    # Legacy LAS stores return numbers of 0 for single returns in some writers.
+    np.maximum(rn, 1, out=rn)
+    np.maximum(nr, rn, out=nr)
+    return PointCloud(
+        xyz=xyz,
+        classification=cls,
+        return_number=rn,
+        number_of_returns=nr,
+        intensity=inten,
+        crs=crs,
+        source=str(path),
+        meta={"las_version": str(header.version), "point_format": int(header.point_format.id)},
+    )
+
+
+def _check_las_size(path: Path, header: Any, n: int) -> None:
+    """Uncompressed LAS: the file must be long enough for the points it promises."""
+    if path.suffix.lower() == ".laz" or header.are_points_compressed:
+        return
+    need = header.offset_to_point_data + n * header.point_format.size
+    have = path.stat().st_size
+    if have < need:
+        got = max(0, (have - header.offset_to_point_data) // header.point_format.size)
+        raise FormatError(f"{path}: truncated; header promises {n} points, file holds {got}")
+
+
+def _check_header_bounds(path: Path, header: Any, xyz: np.ndarray) -> None:
+    """Decoded points must lie in the header's box: a corrupt LAZ chunk decodes to garbage
+    without any error from the decoder, and this is where it shows."""
+    mins, maxs = np.asarray(header.mins, float), np.asarray(header.maxs, float)
+    if not (maxs > mins).any():
+        return  # some writers leave the box unset
+    slack = 0.01 * (maxs - mins) + 2 * np.asarray(header.scales, float)
+    lo, hi = xyz.min(axis=0), xyz.max(axis=0)
+    if (lo < mins - slack).any() or (hi > maxs + slack).any():
+        raise FormatError(f"{path}: points lie outside the header's bounding box (corrupt point data)")
+
+
+def _read_text(path: Path, *, labels: LabelScheme) -> PointCloud:
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(4096)
+    except OSError as exc:
+        raise TdbIOError(f"{path}: {exc.strerror}") from None
+    if b"\0" in head:
+        raise FormatError(f"{path}: binary file that is neither LAS nor LAZ")
+    delimiter = "," if b"," in head.split(b"\n", 1)[0] else None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # an empty file is reported below, as an error
+            data = np.loadtxt(path, delimiter=delimiter, ndmin=2, dtype=np.float64, comments="#")
+    except ValueError as exc:
+        raise FormatError(f"{path}: not a table of numbers ({_first_line(exc)})") from None
+    if data.size == 0:
+        raise InputError(f"{path}: no points")
+    cols = data.shape[1]
+    if cols not in (3, 4):
+        raise FormatError(f"{path}: expected 3 columns (x y z) or 4 (x y z label), found {cols}")
+    classification = None
+    if cols == 4:
+        raw = data[:, 3]
+        if labels is LabelScheme.ISPRS:
+            classification = np.where(raw == 0, 2, 1).astype(np.uint8)
+        else:
+            if (raw < 0).any() or (raw > 255).any() or (raw != np.round(raw)).any():
+                raise FormatError(f"{path}: label column must hold class codes 0..255")
+            classification = raw.astype(np.uint8)
+    return from_arrays(
+        data[:, 0], data[:, 1], data[:, 2], classification=classification, source=str(path), validate=False
+    )
+
+
+def _first_line(exc: Exception) -> str:
+    return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+
+
+def write_las(
+    path: str | os.PathLike[str],
+    cloud: PointCloud,
+    *,
+    classification: np.ndarray | None = None,
+    scale: float = 0.001,
+) -> None:
+    """Write ``cloud`` as LAS 1.4 (point format 6), LAZ where ``path`` ends in ``.laz``.
+
+    The file is written next to its destination and moved into place, so a
+    failure leaves no half-written file.
+    """
+    p = Path(path)
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    lo = cloud.xyz.min(axis=0)
+    header.offsets = np.floor(lo)
+    header.scales = np.array([scale, scale, scale])
+    if cloud.crs is not None:
+        header.add_crs(cloud.crs)
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = cloud.x, cloud.y, cloud.z
+    las.classification = cloud.classification if classification is None else classification
+    las.return_number = cloud.return_number
+    las.number_of_returns = cloud.number_of_returns
+    if cloud.intensity is not None:
+        las.intensity = cloud.intensity
+    tmp = p.with_name(f".{p.name}.part")
+    try:
+        las.write(str(tmp), do_compress=p.suffix.lower() == ".laz")
+        os.replace(tmp, p)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise TdbIOError(f"{p}: cannot write ({exc.strerror or exc})") from None

@@ -1,0 +1,76 @@
+"""GeoJSON of a scene's true features and of the changes between two versions.
+
+Coordinates are in the scene's projected CRS, named in a ``crs`` member as
+QGIS and GDAL read it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import shapely
+
+from ingest.synth.changes import Change
+from ingest.synth.scene import Scene
+from tdb.errors import TdbIOError
+
+
+def _collection(features: list[dict[str, Any]], crs: str) -> dict[str, Any]:
+    code = crs.split(":")[-1]
+    return {
+        "type": "FeatureCollection",
+        "crs": {"type": "name", "properties": {"name": f"urn:ogc:def:crs:EPSG::{code}"}},
+        "features": features,
+    }
+
+
+def _feature(geom: shapely.Geometry, props: dict[str, Any]) -> dict[str, Any]:
+    return {"type": "Feature", "geometry": shapely.geometry.mapping(geom), "properties": props}
+
+
+def scene_truth(scene: Scene) -> dict[str, Any]:
+    """All true terrain features, buildings and trees of ``scene`` as a FeatureCollection."""
+    out = []
+    for f in scene.features:
+        props: dict[str, Any] = {"kind": f.kind, "id": f.ident, "width": f.width}
+        props["depth" if f.sign < 0 else "height"] = f.size
+        if f.kind in ("ditch", "ridge", "wall"):
+            props["profile"] = f.profile
+            props["length"] = round(f.geometry.length, 2)
+        if f.joined_to is not None:
+            props["joined_to"] = f.joined_to
+        if f.kind == "embankment":
+            props["length"] = round(f.geometry.length, 2)
+            props.update({k: float(v) for k, v in (p.split("=") for p in f.profile.split(","))})
+        out.append(_feature(f.geometry, props))
+    for b in scene.buildings:
+        out.append(_feature(b.footprint, {"kind": "building", "id": b.ident, "height": b.height, "roof": b.roof}))
+    for t in scene.trees:
+        out.append(
+            _feature(shapely.Point(t.x, t.y), {"kind": "tree", "height": t.height, "crown_radius": t.crown_radius})
+        )
+    return _collection(out, scene.crs)
+
+
+def changes_truth(changes: list[Change], crs: str) -> dict[str, Any]:
+    """The changes as polygons with kind, signed height change and area."""
+    return _collection(
+        [
+            _feature(
+                c.area, {"kind": c.kind, "dz": round(c.dz, 2), "area": round(c.area.area, 1), "terrain": c.terrain}
+            )
+            for c in changes
+        ],
+        crs,
+    )
+
+
+def write_json(path: str | os.PathLike[str], doc: dict[str, Any]) -> None:
+    p = Path(path)
+    try:
+        p.write_text(json.dumps(doc))
+    except OSError as exc:
+        raise TdbIOError(f"{p}: cannot write ({exc.strerror})") from None

@@ -1,0 +1,57 @@
+"""Streaming a scene's returns to LAS/LAZ, block by block, in bounded memory."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import laspy
+import numpy as np
+
+from ingest.synth.sampling import iter_samples
+from ingest.synth.scene import Scene
+from tdb.errors import TdbIOError
+from tdb.units import as_crs
+
+
+def write_scene(
+    path: str | os.PathLike[str], scene: Scene, *, density: float, seed: int = 0, progress: bool = False
+) -> int:
+    """Write the returns of ``scene`` to ``path`` (LAZ where it ends in .laz); return the point count.
+
+    Written to a temporary file and moved into place: an interrupted run leaves no partial file.
+    """
+    from tqdm import tqdm
+
+    p = Path(path)
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.offsets = np.array([scene.bounds[0], scene.bounds[1], 0.0])
+    header.scales = np.array([0.001, 0.001, 0.001])
+    header.add_crs(as_crs(scene.crs))
+    tmp = p.with_name(f".{p.name}.part")
+    total = 0
+    try:
+        with laspy.open(str(tmp), mode="w", header=header, do_compress=p.suffix.lower() == ".laz") as writer:
+            for cols in tqdm(
+                iter_samples(scene, density=density, seed=seed),
+                disable=not progress,
+                desc="sampling",
+                unit="block",
+            ):
+                if len(cols["x"]) == 0:
+                    continue
+                pts = laspy.ScaleAwarePointRecord.zeros(len(cols["x"]), header=header)
+                pts.x, pts.y, pts.z = cols["x"], cols["y"], cols["z"]
+                pts.classification = cols["cls"]
+                pts.return_number = cols["rn"]
+                pts.number_of_returns = cols["nr"]
+                writer.write_points(pts)
+                total += len(cols["x"])
+        os.replace(tmp, p)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise TdbIOError(f"{p}: cannot write ({exc.strerror or exc})") from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return total

@@ -1,0 +1,7 @@
+"""tdb: a terrain database and query engine for airborne LiDAR."""
+
+from tdb.errors import TdbError
+
+__version__ = "0.1.0"
+
+__all__ = ["TdbError", "__version__"]

@@ -1,0 +1,64 @@
+"""The ``tdb`` command line: a thin shell over the library.
+
+Each subcommand lives in its own module; library errors are turned into one
+line on stderr and a non-zero exit here, at the boundary.
+"""
+
+from __future__ import annotations
+
+import sys
+import traceback
+from typing import Any
+
+import click
+
+from tdb import __version__
+from tdb.errors import TdbError
+
+EXIT_ERROR = 1
+
+
+class TdbGroup(click.Group):
+    """A click group that reports :class:`TdbError` as one line (``--debug``: traceback)."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except TdbError as exc:
+            if ctx.obj and ctx.obj.get("debug"):
+                traceback.print_exc()
+            message = str(exc).splitlines() or [type(exc).__name__]
+            click.echo(f"tdb: error: {message[0]}", err=True)
+            for extra in message[1:]:  # query carets need their context lines
+                click.echo(extra, err=True)
+            sys.exit(EXIT_ERROR)
+        except KeyboardInterrupt:
+            click.echo("tdb: interrupted", err=True)
+            sys.exit(130)
+
+
+@click.group(cls=TdbGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="tdb")
+@click.option("--debug", is_flag=True, help="Show the full traceback of errors.")
+@click.pass_context
+def main(ctx: click.Context, debug: bool) -> None:
+    """tdb: terrain database and query engine for airborne LiDAR.
+
+    \b
+    Examples:
+      tdb info cloud.laz
+      tdb synth --size 200 --density 4 --out scene.laz
+      tdb ground cloud.laz --out ground.laz --dtm dtm.tif
+    """
+    ctx.ensure_object(dict)
+    ctx.obj["debug"] = debug
+
+
+def _register() -> None:
+    from tdb.cli import info, synth
+
+    for module in (info, synth):
+        main.add_command(module.command)
+
+
+_register()

@@ -1,0 +1,31 @@
+"""Shared fixtures: paths to the real data (skipped where absent) and small scenes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+
+def data_file(*parts: str) -> Path:
+    """A file under ../shared/data, or a clean skip where the data is not present."""
+    path = DATA.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"real data not present: {path}")
+    return path
+
+
+@pytest.fixture(scope="session")
+def small_scene():
+    from ingest.synth import make_scene
+
+    return make_scene(seed=11, size=120)
+
+
+@pytest.fixture(scope="session")
+def small_cloud(small_scene):
+    from ingest.synth import sample
+
+    return sample(small_scene, density=3.0, seed=11)

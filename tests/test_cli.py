@@ -1,0 +1,61 @@
+"""The command line: help with examples, versions, one-line errors, --debug."""
+
+from __future__ import annotations
+
+import pytest
+from click.testing import CliRunner
+
+from tdb import __version__
+from tdb.cli import main
+
+
+@pytest.fixture
+def runner():
+    return CliRunner()
+
+
+def test_version(runner):
+    result = runner.invoke(main, ["--version"])
+    assert result.exit_code == 0 and __version__ in result.output
+
+
+def test_every_command_has_help_with_examples(runner):
+    assert main.commands, "no subcommands registered"
+    for name in main.commands:
+        result = runner.invoke(main, [name, "--help"])
+        assert result.exit_code == 0, name
+        assert "Example" in result.output, f"{name} --help has no example"
+
+
+def test_error_is_one_line_and_nonzero(runner, tmp_path):
+    result = runner.invoke(main, ["info", str(tmp_path / "missing.laz")])
+    assert result.exit_code == 1
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tdb: error:") and "Traceback" not in result.stderr
+
+
+def test_debug_shows_traceback(runner, tmp_path):
+    result = runner.invoke(main, ["--debug", "info", str(tmp_path / "missing.laz")])
+    assert result.exit_code == 1
+    assert "Traceback" in result.stderr
+
+
+def test_synth_then_info(runner, tmp_path):
+    out = tmp_path / "s.laz"
+    result = runner.invoke(
+        main,
+        ["synth", "--size", "100", "--density", "1", "--out", str(out), "--truth", str(tmp_path / "t.geojson")],
+    )
+    assert result.exit_code == 0, result.output
+    info = runner.invoke(main, ["info", str(out), "--json"])
+    assert info.exit_code == 0
+    import json
+
+    facts = json.loads(info.output)
+    assert facts["epsg"] == 25832 and facts["points"] > 5000
+
+
+def test_bad_option_value_is_clean(runner, tmp_path):
+    result = runner.invoke(main, ["synth", "--size", "5", "--out", str(tmp_path / "x.laz")])
+    assert result.exit_code == 1
+    assert "scene size" in result.stderr
