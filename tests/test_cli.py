@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -59,3 +60,19 @@ def test_bad_option_value_is_clean(runner, tmp_path):
     result = runner.invoke(main, ["synth", "--size", "5", "--out", str(tmp_path / "x.laz")])
     assert result.exit_code == 1
     assert "scene size" in result.stderr
+
+
+def test_ground_command(runner, tmp_path):
+    src = tmp_path / "s.laz"
+    assert runner.invoke(main, ["synth", "--size", "100", "--density", "1", "--out", str(src)]).exit_code == 0
+    out, dtm = tmp_path / "g.laz", tmp_path / "d.tif"
+    result = runner.invoke(main, ["ground", str(src), "--out", str(out), "--dtm", str(dtm)])
+    assert result.exit_code == 0, result.output
+    from ingest.readers import read
+
+    a, b = read(src), read(out)
+    np.testing.assert_allclose(a.xyz, b.xyz, atol=1e-3)  # same points, same order
+    assert set(np.unique(b.classification)) <= {1, 2}
+    agree = ((a.classification == 2) == (b.classification == 2)).mean()
+    assert agree > 0.95
+    assert dtm.exists()

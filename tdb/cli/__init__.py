@@ -55,9 +55,9 @@ def main(ctx: click.Context, debug: bool) -> None:
 
 
 def _register() -> None:
-    from tdb.cli import info, synth
+    from tdb.cli import ground, info, synth
 
-    for module in (info, synth):
+    for module in (info, synth, ground):
         main.add_command(module.command)
 
 

@@ -1,0 +1,84 @@
+"""The dense ground model: a regular grid interpolated from the ground points.
+
+Linear interpolation on the Delaunay TIN of the ground points, evaluated at
+cell centres; cells outside the points' convex hull, or under a TIN facet
+longer than ``max_edge``, are no-data rather than guesses.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ingest.ground.grids import MAX_CELLS
+from ingest.ground.tin import barycentric, triangulate
+from tdb.errors import InputError
+from tdb.raster import Raster
+
+DEFAULT_RESOLUTION = 0.5
+
+
+def dense_model(
+    ground_xyz: NDArray[np.float64],
+    *,
+    resolution: float = DEFAULT_RESOLUTION,
+    bounds: tuple[float, float, float, float] | None = None,
+    max_edge: float | None = 50.0,
+    crs: Any = None,
+) -> Raster:
+    """Grid of ground heights at ``resolution`` m over ``bounds`` (default: the points' extent).
+
+    Parameters
+    ----------
+    ground_xyz : (N, 3) ground points in metres.
+    resolution : cell size in metres.
+    bounds : (xmin, ymin, xmax, ymax); snapped outward to whole cells.
+    max_edge : facets with an edge longer than this (m) are no-data (large gaps); None keeps all.
+    crs : stored with the raster.
+    """
+    if resolution <= 0:
+        raise InputError(f"resolution must be positive, got {resolution}")
+    xyz = np.asarray(ground_xyz, float)
+    tri = triangulate(xyz[:, :2])
+    if bounds is None:
+        lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
+        bounds = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+    x0 = np.floor(bounds[0] / resolution) * resolution
+    y0 = np.floor(bounds[1] / resolution) * resolution
+    cols = int(np.ceil((bounds[2] - x0) / resolution)) or 1
+    rows = int(np.ceil((bounds[3] - y0) / resolution)) or 1
+    if rows * cols > MAX_CELLS:
+        raise InputError(
+            f"a {resolution} m grid over this extent needs {rows * cols:,} cells; use a coarser resolution"
+        )
+    raster = Raster(np.full((rows, cols), np.nan), float(x0), float(y0 + rows * resolution), resolution, crs)
+    xs, ys = raster.centres()
+    data = raster.data
+    long_facet = _long_facets(tri, xyz, max_edge)
+    for r0 in range(0, rows, 512):  # bands bound the memory of point location
+        gx, gy = np.meshgrid(xs, ys[r0 : r0 + 512])
+        q = np.column_stack([gx.ravel(), gy.ravel()])
+        data[r0 : r0 + 512] = _interpolate(tri, xyz[:, 2], q, long_facet).reshape(gx.shape)
+    return raster
+
+
+def _long_facets(tri: Any, xyz: NDArray[np.float64], max_edge: float | None) -> NDArray[np.bool_]:
+    if max_edge is None:
+        return np.zeros(len(tri.simplices), bool)
+    v = xyz[tri.simplices, :2]
+    edges = np.stack([v[:, 1] - v[:, 0], v[:, 2] - v[:, 1], v[:, 0] - v[:, 2]], axis=1)
+    return np.linalg.norm(edges, axis=2).max(axis=1) > max_edge
+
+
+def _interpolate(
+    tri: Any, z: NDArray[np.float64], q: NDArray[np.float64], skip: NDArray[np.bool_]
+) -> NDArray[np.float64]:
+    simplex = tri.find_simplex(q)
+    out = np.full(len(q), np.nan)
+    ok = simplex >= 0
+    ok[ok] = ~skip[simplex[ok]]
+    lam = barycentric(tri, simplex[ok], q[ok])
+    out[ok] = (lam * z[tri.simplices[simplex[ok]]]).sum(axis=1)
+    return out

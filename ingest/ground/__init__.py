@@ -1,0 +1,48 @@
+"""Ground filters: Sohn–Dowman, Elmqvist's active contour, and the default."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ingest.ground.auto import AutoParams, auto_ground
+from ingest.ground.contour import ContourParams, active_contour
+from ingest.ground.outliers import low_outliers
+from ingest.ground.sohn import SohnParams, sohn_dowman
+from tdb.cloud import PointCloud, check_spread, from_arrays
+from tdb.options import GroundMethod, parse
+
+__all__ = ["AutoParams", "ContourParams", "SohnParams", "classify_ground", "low_outliers"]
+
+
+def classify_ground(
+    points: PointCloud | NDArray[np.float64], *, method: str | GroundMethod = "auto"
+) -> NDArray[np.bool_]:
+    """Ground mask of a point cloud (coordinates in metres).
+
+    Parameters
+    ----------
+    points : a :class:`PointCloud` or an (N, 3) array.
+    method : ``auto`` (default filter), ``sohn`` (Sohn & Dowman 2002) or
+        ``contour`` (Elmqvist active contour). See :class:`GroundMethod`.
+
+    Raises
+    ------
+    DegenerateInputError
+        For fewer than three points, or points spanning no area.
+    """
+    m = parse(GroundMethod, method)
+    cloud = points if isinstance(points, PointCloud) else from_arrays(*np.asarray(points, float).T, validate=False)
+    check_spread(cloud)
+    xyz = cloud.xyz
+    if m is GroundMethod.AUTO:
+        return auto_ground(xyz)
+    # The papers have no outlier step; both use the default filter's (see docs/ground.md).
+    out = low_outliers(xyz)
+    ground = np.zeros(len(xyz), bool)
+    keep = np.flatnonzero(~out)
+    if m is GroundMethod.SOHN:
+        ground[keep] = sohn_dowman(xyz[keep])
+    else:
+        ground[keep] = active_contour(xyz[keep])
+    return ground

@@ -1,0 +1,110 @@
+"""Elmqvist (2001/2002): an active-contour net pulled up from below the data.
+
+The lowest point of each grid cell is the data the net sees. The net starts a
+metre below the lowest point and moves only in z under three forces: elasticity
+(arctan of the height differences to its four neighbours), attraction towards
+its cell's lowest point (strong near it, zero beyond a cut-off range above it),
+and, in the first phase only, gravitation. The sign of the total force says up
+or down; strong attraction means a small step, so the net does not jump past
+the point. The net is solved coarse to fine (the hierarchic scheme), each level
+starting from the one before. Points near the final net are ground.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from ingest.ground.grids import Grid, lowest_per_cell
+
+
+@dataclass(frozen=True)
+class ContourParams:
+    cell: float = 1.0  # finest grid (m)
+    levels: int = 5  # coarse-to-fine levels, each halving the cell
+    elasticity: float = 1.0
+    attraction: float = 2.0
+    attraction_range: float = 1.5  # cut-off (m) for points above the net, at the finest level
+    gravity: float = 0.5
+    step: float = 0.5  # largest move per iteration (m)
+    tolerance: float = 0.005  # convergence: largest move below this (m)
+    max_iterations: int = 300
+    ground_distance: float = 0.4  # points within this of the net are ground (m)
+
+
+def elasticity(net: NDArray[np.float64], cell: float) -> NDArray[np.float64]:
+    """Sum over the four neighbours of arctan(height difference / spacing)."""
+    p = np.pad(net, 1, mode="edge")
+    centre = p[1:-1, 1:-1]
+    return sum(np.arctan((nb - centre) / cell) for nb in (p[:-2, 1:-1], p[2:, 1:-1], p[1:-1, :-2], p[1:-1, 2:]))  # type: ignore[return-value]
+
+
+def attraction(d: NDArray[np.float64], *, strength: float, reach: float) -> NDArray[np.float64]:
+    """Force towards the data at signed distance d = point − net (NaN: no point).
+
+    A point above the net attracts it with full strength up to ``reach`` and not
+    at all beyond (the cut-off tail); a point below the net always pulls it down.
+    """
+    out = np.zeros(d.shape)
+    has = ~np.isnan(d)
+    dd = d[has]
+    out[has] = np.where(dd >= 0, np.where(dd <= reach, strength, 0.0), -strength)
+    return out
+
+
+def relax(
+    target: NDArray[np.float64], net: NDArray[np.float64], cell: float, reach: float, p: ContourParams
+) -> NDArray[np.float64]:
+    """Run both phases on one level; returns the converged net."""
+    net = net.copy()
+    for gravity in (p.gravity, 0.0):
+        for _ in range(p.max_iterations):
+            d = target - net
+            a = attraction(d, strength=p.attraction, reach=reach)
+            force = p.elasticity * elasticity(net, cell) + a - gravity
+            dz = np.sign(force) * np.minimum(p.step, np.abs(force) * p.step)
+            # Near its point the net takes small steps and never jumps past it.
+            toward = (np.sign(dz) == np.sign(d)) & (a != 0)
+            dz = np.where(toward, np.sign(dz) * np.minimum(np.abs(dz), 0.5 * np.abs(d) + 0.001), dz)
+            net += dz
+            if np.abs(dz).max() < p.tolerance:
+                break
+    return net
+
+
+def active_contour_net(xyz: NDArray[np.float64], *, params: ContourParams | None = None) -> tuple[Grid, NDArray]:
+    """The converged net on the finest grid (rows south to north)."""
+    p = params or ContourParams()
+    # Finest cell: about 1.5 point spacings, so that most cells hold a point.
+    lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
+    density = len(xyz) / max(float(np.prod(hi - lo)), 1.0)
+    cell = max(p.cell, 1.5 / np.sqrt(density))
+    fine = Grid.covering(xyz[:, :2], cell)
+    net: NDArray[np.float64] | None = None
+    for level in range(p.levels - 1, -1, -1):
+        factor = 2**level
+        grid = Grid(fine.x0, fine.y0, cell * factor, (-(-fine.shape[0] // factor), -(-fine.shape[1] // factor)))
+        target, _ = lowest_per_cell(grid, xyz)
+        if net is None:
+            # The first net lies below everything: only here may far points attract it.
+            net = np.full(grid.shape, np.nanmin(target) - 1.0)
+            reach = float(np.nanmax(target) - np.nanmin(target)) + 2.0
+        else:
+            reach = p.attraction_range * factor
+            zoom = (grid.shape[0] / net.shape[0], grid.shape[1] / net.shape[1])
+            net = ndimage.zoom(net, zoom, order=1, mode="nearest", grid_mode=True)[
+                : grid.shape[0], : grid.shape[1]
+            ]
+        net = relax(target, net, grid.cell, reach, p)
+    assert net is not None
+    return fine, net[: fine.shape[0], : fine.shape[1]]
+
+
+def active_contour(xyz: NDArray[np.float64], *, params: ContourParams | None = None) -> NDArray[np.bool_]:
+    """Ground mask: points within ``ground_distance`` of the converged net."""
+    p = params or ContourParams()
+    grid, net = active_contour_net(xyz, params=p)
+    return np.abs(xyz[:, 2] - grid.sample(net, xyz[:, :2])) <= p.ground_distance

@@ -1,0 +1,81 @@
+"""Triangulated surfaces on numpy arrays: barycentrics, heights above facets, normals."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import Delaunay, QhullError
+
+from tdb.errors import DegenerateInputError
+
+
+def triangulate(xy: NDArray[np.float64]) -> Delaunay:
+    """Delaunay triangulation of plan positions, with a clear error on degenerate input."""
+    try:
+        return Delaunay(xy)
+    except (QhullError, ValueError) as exc:
+        raise DegenerateInputError(f"cannot triangulate {len(xy)} points: {str(exc).splitlines()[0]}") from None
+
+
+def barycentric(tri: Delaunay, simplex: NDArray[np.intp], xy: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Barycentric coordinates (M, 3) of ``xy`` in the given simplices of ``tri``."""
+    t = tri.transform[simplex]
+    b = np.einsum("ijk,ik->ij", t[:, :2, :], xy - t[:, 2, :])
+    return np.column_stack([b, 1.0 - b.sum(axis=1)])
+
+
+def surface_height(
+    tri: Delaunay, z: NDArray[np.float64], xy: NDArray[np.float64], simplex: NDArray[np.intp] | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """Height of the TIN (vertex heights ``z``) at ``xy``; NaN outside the hull. Returns (height, simplex)."""
+    if simplex is None:
+        simplex = tri.find_simplex(xy)
+    out = np.full(len(xy), np.nan)
+    inside = simplex >= 0
+    if inside.any():
+        lam = barycentric(tri, simplex[inside], xy[inside])
+        out[inside] = (lam * z[tri.simplices[simplex[inside]]]).sum(axis=1)
+    return out, simplex
+
+
+def unit_normals(p0: NDArray[np.float64], p1: NDArray[np.float64], p2: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Upward unit normals (M, 3) of triangles given by vertex arrays (M, 3)."""
+    n = np.cross(p1 - p0, p2 - p0)
+    n *= np.sign(n[:, 2:3] + (n[:, 2:3] == 0))
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return n / np.where(length == 0, 1.0, length)
+
+
+def angle_between(n1: NDArray[np.float64], n2: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Angle in degrees between unit normals, row by row."""
+    return np.degrees(np.arccos(np.clip((n1 * n2).sum(axis=1), -1.0, 1.0)))
+
+
+def group_starts(keys: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
+    """For sorted ``keys``: the unique keys, where each group starts, and its size."""
+    if len(keys) == 0:
+        empty = np.empty(0, np.intp)
+        return empty, empty, empty
+    starts = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])
+    sizes = np.diff(np.r_[starts, len(keys)])
+    return keys[starts], starts, sizes
+
+
+def cross_pairs(a_group: NDArray[np.intp], b_group: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """All pairs (i, j) with a_group[i] == b_group[j], as index arrays into a and b."""
+    ao = np.argsort(a_group, kind="stable")
+    bo = np.argsort(b_group, kind="stable")
+    ak, astart, asize = group_starts(a_group[ao])
+    bk, bstart, bsize = group_starts(b_group[bo])
+    common, ia, ib = np.intersect1d(ak, bk, assume_unique=True, return_indices=True)
+    na, nb = asize[ia], bsize[ib]
+    per = na * nb
+    total = int(per.sum())
+    if total == 0:
+        empty = np.empty(0, np.intp)
+        return empty, empty
+    grp = np.repeat(np.arange(len(common)), per)
+    offset = np.arange(total) - np.repeat(np.cumsum(per) - per, per)
+    i = ao[astart[ia][grp] + offset // nb[grp]]
+    j = bo[bstart[ib][grp] + offset % nb[grp]]
+    return i, j

@@ -1,0 +1,69 @@
+"""``tdb ground``: classify ground points and write the dense ground model."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from tdb.cli.options import input_options
+from tdb.options import GroundMethod
+
+
+@click.command("ground")
+@click.argument("cloud", type=click.Path(path_type=Path))
+@click.option(
+    "--method",
+    type=click.Choice(GroundMethod.values()),
+    default="auto",
+    show_default=True,
+    help="auto: the default filter; sohn: Sohn & Dowman 2002; contour: Elmqvist active contour.",
+)
+@click.option(
+    "--out", type=click.Path(path_type=Path), help="LAS/LAZ of the input points, class 2 ground, 1 other."
+)
+@click.option("--dtm", type=click.Path(path_type=Path), help="GeoTIFF of the dense ground model.")
+@click.option("--resolution", type=float, default=0.5, show_default=True, help="DTM cell size (m).")
+@click.option("--assume-metres", is_flag=True, help="Accept a file with no CRS as metres.")
+@input_options
+def command(
+    cloud: Path,
+    method: str,
+    out: Path | None,
+    dtm: Path | None,
+    resolution: float,
+    assume_metres: bool,
+    crs: str | None,
+    labels: str,
+) -> None:
+    """Find the ground in a point cloud.
+
+    Points keep their input order; the output carries classification 2 for
+    ground and 1 for everything else, in the input's coordinates and CRS.
+
+    \b
+    Examples:
+      tdb ground survey.laz --out ground.laz --dtm dtm.tif
+      tdb ground survey.laz --method sohn --out sohn.laz
+      tdb ground samp11.txt --crs EPSG:32632 --dtm samp11.tif --resolution 1
+    """
+    import numpy as np
+
+    from ingest.dtm import dense_model
+    from ingest.ground import classify_ground
+    from ingest.readers import read, write_las
+    from tdb.units import to_metres
+
+    raw = read(cloud, crs=crs, labels=labels)
+    metric = to_metres(raw, assume_metres=assume_metres)
+    ground = classify_ground(metric, method=method)
+    click.echo(f"{int(ground.sum()):,} of {len(raw):,} points are ground ({100 * ground.mean():.1f} %)")
+    if out:
+        write_las(out, raw, classification=np.where(ground, 2, 1).astype(np.uint8))
+        click.echo(f"wrote {out}")
+    if dtm:
+        from tdb.geotiff import write_geotiff
+
+        model = dense_model(metric.xyz[ground], resolution=resolution, crs=metric.crs)
+        write_geotiff(dtm, model)
+        click.echo(f"wrote {dtm} ({model.shape[1]} × {model.shape[0]} cells of {resolution} m)")

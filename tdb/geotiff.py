@@ -1,0 +1,61 @@
+"""GeoTIFF output through rasterio (GDAL), so QGIS and GDAL read it as-is."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from tdb.errors import TdbIOError
+from tdb.raster import Raster
+
+
+def write_geotiff(path: str | os.PathLike[str], raster: Raster, *, nodata: float = -9999.0) -> None:
+    """Write a single-band float32 GeoTIFF (deflate-compressed, tiled) with the raster's CRS.
+
+    Written beside the destination and moved into place.
+    """
+    import rasterio
+    from rasterio.transform import from_origin
+
+    p = Path(path)
+    data = np.where(np.isnan(raster.data), nodata, raster.data).astype(np.float32)
+    profile = {
+        "driver": "GTiff",
+        "height": data.shape[0],
+        "width": data.shape[1],
+        "count": 1,
+        "dtype": "float32",
+        "nodata": nodata,
+        "transform": from_origin(raster.x0, raster.y1, raster.cell, raster.cell),
+        "compress": "deflate",
+        "tiled": data.shape[0] >= 256 and data.shape[1] >= 256,
+    }
+    if raster.crs is not None:
+        profile["crs"] = rasterio.crs.CRS.from_wkt(raster.crs.to_wkt())
+    tmp = p.with_name(f".{p.name}.part")
+    try:
+        with rasterio.open(tmp, "w", **profile) as dst:
+            dst.write(data, 1)
+        os.replace(tmp, p)
+    except (OSError, rasterio.errors.RasterioError) as exc:
+        tmp.unlink(missing_ok=True)
+        raise TdbIOError(f"{p}: cannot write GeoTIFF ({exc})") from None
+
+
+def read_geotiff(path: str | os.PathLike[str]) -> Raster:
+    """Read band 1 of a GeoTIFF written by :func:`write_geotiff` (no-data as NaN)."""
+    import pyproj
+    import rasterio
+
+    try:
+        with rasterio.open(path) as src:
+            data = src.read(1).astype(np.float64)
+            if src.nodata is not None:
+                data[data == src.nodata] = np.nan
+            t = src.transform
+            crs = pyproj.CRS.from_wkt(src.crs.to_wkt()) if src.crs else None
+    except (OSError, rasterio.errors.RasterioError) as exc:
+        raise TdbIOError(f"{path}: cannot read GeoTIFF ({exc})") from None
+    return Raster(data, float(t.c), float(t.f), float(t.a), crs)

@@ -1,0 +1,151 @@
+"""Ground filters: MDL terms, synthetic scenes with truth, real ISPRS samples, degenerate input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ingest.ground import classify_ground, low_outliers
+from ingest.ground.evaluate import accuracy
+from ingest.ground.sohn import SohnParams, _facet_t, description_length, initial_corners, p_buf, p_on
+from ingest.readers import read
+from ingest.synth import make_scene, sample
+from tdb.cloud import GROUND
+from tdb.errors import DegenerateInputError, InputError, OptionError
+from tests.conftest import data_file
+
+P = SohnParams()
+
+
+def test_sigmoids_are_complementary_and_centred_on_beta():
+    d = np.linspace(0, 90, 19)
+    np.testing.assert_allclose(p_on(d, P) + p_buf(d, P), 1.0)
+    assert p_on(np.array([45.0]), P)[0] == pytest.approx(0.5)
+    assert p_on(np.array([0.0]), P)[0] == pytest.approx(1 / (1 + np.exp(-4.5)))
+    assert (np.diff(p_on(d, P)) < 0).all() and (np.diff(p_buf(d, P)) > 0).all()
+
+
+def test_description_length_terms():
+    # Smooth ons and steep bufs cost little; a flat buf or steep on costs a lot.
+    good = description_length(np.array([2.0, 5.0]), np.array([85.0]), n_offs=4, height=0.5, p=P)
+    bad = description_length(np.array([80.0, 85.0]), np.array([3.0]), n_offs=4, height=0.5, p=P)
+    assert good < bad
+    # L(T_out) = -log2 N_offs: more offs, shorter; L(T_in) = log2 H: taller, longer.
+    base = description_length(np.array([]), np.array([]), n_offs=1, height=1.0, p=P)
+    assert base == pytest.approx(0.0)
+    assert description_length(np.array([]), np.array([]), n_offs=8, height=1.0, p=P) == pytest.approx(-3.0)
+    assert description_length(np.array([]), np.array([]), n_offs=1, height=4.0, p=P) == pytest.approx(2.0)
+
+
+def test_facet_share_matches_geometry():
+    # Apex at the centroid, height H; a point halfway from the centroid to a vertex
+    # lies in a facet at height H/2.
+    lam_a = np.array([[1 / 3, 1 / 3, 1 / 3]])
+    vertex = np.array([[1.0, 0.0, 0.0]])
+    lam_p = (lam_a + vertex) / 2
+    t, k = _facet_t(lam_p, lam_a)
+    assert t[0] == pytest.approx(0.5)
+    assert k[0] in (1, 2)
+
+
+def test_initial_corners_average_their_neighbours():
+    rng = np.random.default_rng(0)
+    xyz = np.column_stack([rng.uniform(0, 100, 500), rng.uniform(0, 100, 500), np.full(500, 42.0)])
+    corners = initial_corners(xyz)
+    np.testing.assert_allclose(corners[:, 2], 42.0)
+    assert (corners[:, 0].min() < 0) and (corners[:, 1].max() > 100)
+
+
+def _scene_error(method: str, seed: int, size: float = 120, density: float = 2.0) -> float:
+    scene = make_scene(seed=seed, size=size)
+    cloud = sample(scene, density=density, seed=seed)
+    truth = cloud.classification == GROUND
+    return accuracy(truth, classify_ground(cloud, method=method)).total
+
+
+def test_default_synthetic_error_over_seeds():
+    # Mean over seeds, worst case included: the escarpment's top, where the scene
+    # edge cuts it, is the known weak spot (docs/ground.md).
+    errors = [_scene_error("auto", seed) for seed in (3, 5, 21)]
+    assert np.mean(errors) < 6.0 and max(errors) < 10.0
+
+
+@pytest.mark.parametrize("method,bound", [("sohn", 12.0), ("contour", 20.0)])
+def test_paper_filters_synthetic_error(method, bound):
+    assert _scene_error(method, seed=21, size=100, density=1.0) < bound
+
+
+def test_low_outliers_found_and_ground_kept():
+    rng = np.random.default_rng(3)
+    n = 4000
+    xyz = np.column_stack([rng.uniform(0, 60, n), rng.uniform(0, 60, n), rng.normal(0, 0.05, n)])
+    xyz[:, 2] += 0.2 * xyz[:, 0]  # a 20 % slope
+    bad = rng.choice(n, 20, replace=False)
+    xyz[bad, 2] -= rng.uniform(5, 80, 20)
+    flagged = low_outliers(xyz)
+    assert flagged[bad].all()
+    assert flagged.sum() <= 25
+
+
+def test_low_outliers_do_not_anchor_default_surface():
+    scene = make_scene(seed=5, size=120)
+    cloud = sample(scene, density=2.0, seed=5)
+    xyz = cloud.xyz.copy()
+    rng = np.random.default_rng(5)
+    bad = rng.choice(len(xyz), 30, replace=False)
+    xyz[bad, 2] -= rng.uniform(10, 80, 30)
+    ground = classify_ground(xyz)
+    clean = classify_ground(cloud)
+    assert not ground[bad].any()
+    others = np.ones(len(xyz), bool)
+    others[bad] = False
+    # The surface does not sink to the outliers: the other points are judged as without them.
+    assert (ground[others] != clean[others]).mean() < 0.005
+
+
+@pytest.mark.parametrize("method", ["auto", "sohn", "contour"])
+def test_fewer_than_three_points(method):
+    with pytest.raises(DegenerateInputError):
+        classify_ground(np.array([[0.0, 0.0, 1.0], [1.0, 1.0, 1.0]]), method=method)
+
+
+@pytest.mark.parametrize("method", ["auto", "sohn", "contour"])
+def test_collinear_points(method):
+    t = np.linspace(0, 10, 30)
+    with pytest.raises(DegenerateInputError):
+        classify_ground(np.column_stack([t, 2 * t, np.zeros(30)]), method=method)
+
+
+def test_duplicates_are_handled():
+    rng = np.random.default_rng(1)
+    xyz = np.column_stack([rng.uniform(0, 50, 2000), rng.uniform(0, 50, 2000), rng.normal(0, 0.03, 2000)])
+    xyz = np.vstack([xyz, xyz[:500]])  # exact duplicate points
+    for method in ("auto", "sohn", "contour"):
+        g = classify_ground(xyz, method=method)
+        assert g.mean() > 0.9
+
+
+def test_absurd_extent_is_refused():
+    xyz = np.array([[0.0, 0.0, 0.0], [1e7, 0.0, 0.0], [0.0, 1e7, 0.0], [5.0, 5.0, 0.0]])
+    with pytest.raises(InputError, match="cells"):
+        classify_ground(xyz, method="auto")
+
+
+def test_unknown_method():
+    with pytest.raises(OptionError, match="choose one of"):
+        classify_ground(np.zeros((3, 3)), method="magic")
+
+
+@pytest.mark.parametrize("sample_id,bound", [("21", 4.0), ("31", 4.0), ("54", 5.0)])
+def test_default_on_isprs(sample_id, bound):
+    cloud = read(data_file("isprs", f"samp{sample_id}-utm.laz"))
+    acc = accuracy(cloud.classification == 2, classify_ground(cloud))
+    assert acc.total < bound
+
+
+def test_default_removes_isprs_low_outliers():
+    cloud = read(data_file("isprs", "samp41-utm.laz"))
+    ground = classify_ground(cloud)
+    # The reference marks the deep low points as objects; none may be called ground.
+    deep = cloud.z < np.percentile(cloud.z, 50) - 20
+    assert deep.any() and not ground[deep].any()
