@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.ground.grids import MAX_CELLS
-from ingest.ground.tin import barycentric, triangulate
+from ingest.ground.tin import barycentric, locate, triangulate
 from tdb.errors import InputError
 from tdb.raster import Raster
 
@@ -45,10 +45,14 @@ def dense_model(
     if bounds is None:
         lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
         bounds = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
-    x0 = np.floor(bounds[0] / resolution) * resolution
-    y0 = np.floor(bounds[1] / resolution) * resolution
-    cols = int(np.ceil((bounds[2] - x0) / resolution)) or 1
-    rows = int(np.ceil((bounds[3] - y0) / resolution)) or 1
+    # Posts (cell centres) sit on whole multiples of the resolution, so the 2 m tile
+    # sub-grid nodes are posts and grids of two surveys line up exactly.
+    first_x = np.floor(bounds[0] / resolution) * resolution
+    first_y = np.floor(bounds[1] / resolution) * resolution
+    cols = int(np.ceil((bounds[2] - first_x) / resolution)) + 1
+    rows = int(np.ceil((bounds[3] - first_y) / resolution)) + 1
+    x0 = first_x - resolution / 2
+    y0 = first_y - resolution / 2
     if rows * cols > MAX_CELLS:
         raise InputError(
             f"a {resolution} m grid over this extent needs {rows * cols:,} cells; use a coarser resolution"
@@ -75,7 +79,7 @@ def _long_facets(tri: Any, xyz: NDArray[np.float64], max_edge: float | None) -> 
 def _interpolate(
     tri: Any, z: NDArray[np.float64], q: NDArray[np.float64], skip: NDArray[np.bool_]
 ) -> NDArray[np.float64]:
-    simplex = tri.find_simplex(q)
+    simplex = locate(tri, q)
     out = np.full(len(q), np.nan)
     ok = simplex >= 0
     ok[ok] = ~skip[simplex[ok]]

@@ -5,3 +5,7 @@ from tdb.errors import TdbError
 __version__ = "0.1.0"
 
 __all__ = ["TdbError", "__version__"]
+
+from tdb.database import Database, open  # noqa: E402,A004 - tdb.open() like rasterio.open()
+
+__all__ += ["Database", "open"]

@@ -21,7 +21,7 @@ from scipy.spatial import cKDTree
 
 from ingest.ground.grids import Grid, fill_nearest, lowest_per_cell
 from ingest.ground.outliers import low_outliers
-from ingest.ground.tin import barycentric, triangulate
+from ingest.ground.tin import barycentric, locate, triangulate
 
 
 @dataclass(frozen=True)
@@ -66,7 +66,7 @@ def progressive_opening(
 def tin_heights(ground_xyz: NDArray[np.float64], xy: NDArray[np.float64]) -> NDArray[np.float64]:
     """Height of the TIN of ``ground_xyz`` at ``xy``; outside its hull, the nearest ground point's."""
     tri = triangulate(ground_xyz[:, :2])
-    simplex = tri.find_simplex(xy)
+    simplex = locate(tri, xy)
     inside = simplex >= 0
     out = np.empty(len(xy))
     lam = barycentric(tri, simplex[inside], xy[inside])

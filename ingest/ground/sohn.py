@@ -21,7 +21,15 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import Delaunay
 
-from ingest.ground.tin import angle_between, barycentric, cross_pairs, group_starts, triangulate, unit_normals
+from ingest.ground.tin import (
+    angle_between,
+    barycentric,
+    cross_pairs,
+    group_starts,
+    locate,
+    triangulate,
+    unit_normals,
+)
 
 EPS = 1e-9
 
@@ -111,7 +119,7 @@ def heights_above_tin(
     verts = np.vstack([corners, xyz[ground]])
     tri = triangulate(verts[:, :2])
     idx = np.flatnonzero(~ground)
-    simplex = tri.find_simplex(xyz[idx, :2])
+    simplex = locate(tri, xyz[idx, :2])
     lam = barycentric(tri, simplex, xyz[idx, :2])
     return idx, simplex, xyz[idx, 2] - (lam * verts[tri.simplices[simplex], 2]).sum(axis=1)
 
@@ -133,7 +141,7 @@ def upward(
         verts = np.vstack([corners, xyz[gidx]])
         tri = triangulate(verts[:, :2])
         free = np.flatnonzero(~ground)
-        simplex = tri.find_simplex(xyz[free, :2])
+        simplex = locate(tri, xyz[free, :2])
         lam = barycentric(tri, simplex, xyz[free, :2])
         vz = verts[tri.simplices, 2]
         h = xyz[free, 2] - (lam * vz[simplex]).sum(axis=1)

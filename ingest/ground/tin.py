@@ -17,6 +17,29 @@ def triangulate(xy: NDArray[np.float64]) -> Delaunay:
         raise DegenerateInputError(f"cannot triangulate {len(xy)} points: {str(exc).splitlines()[0]}") from None
 
 
+def morton_order(xy: NDArray[np.float64]) -> NDArray[np.intp]:
+    """An ordering of points along a Z-order curve (spatially coherent)."""
+    lo = xy.min(axis=0)
+    span = max(float((xy.max(axis=0) - lo).max()), 1e-9)
+    q = ((xy - lo) / span * 65535).astype(np.uint64)
+    key = np.zeros(len(xy), np.uint64)
+    for bit in range(16):
+        key |= ((q[:, 0] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(2 * bit)
+        key |= ((q[:, 1] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(2 * bit + 1)
+    return np.argsort(key, kind="stable")
+
+
+def locate(tri: Delaunay, xy: NDArray[np.float64]) -> NDArray[np.intp]:
+    """``tri.find_simplex`` in Z-order: its walk starts where the last query ended,
+    so spatially ordered queries take a few steps each instead of crossing the mesh."""
+    if len(xy) == 0:
+        return np.empty(0, np.intp)
+    order = morton_order(xy)
+    out = np.empty(len(xy), np.intp)
+    out[order] = tri.find_simplex(xy[order])
+    return out
+
+
 def barycentric(tri: Delaunay, simplex: NDArray[np.intp], xy: NDArray[np.float64]) -> NDArray[np.float64]:
     """Barycentric coordinates (M, 3) of ``xy`` in the given simplices of ``tri``."""
     t = tri.transform[simplex]
@@ -29,7 +52,7 @@ def surface_height(
 ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """Height of the TIN (vertex heights ``z``) at ``xy``; NaN outside the hull. Returns (height, simplex)."""
     if simplex is None:
-        simplex = tri.find_simplex(xy)
+        simplex = locate(tri, xy)
     out = np.full(len(xy), np.nan)
     inside = simplex >= 0
     if inside.any():

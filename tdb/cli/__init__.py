@@ -55,9 +55,9 @@ def main(ctx: click.Context, debug: bool) -> None:
 
 
 def _register() -> None:
-    from tdb.cli import ground, info, synth
+    from tdb.cli import aoi, categories, ground, info, ingest, synth
 
-    for module in (info, synth, ground):
+    for module in (info, synth, ground, ingest, aoi, categories):
         main.add_command(module.command)
 
 

@@ -23,8 +23,43 @@ def command(path: Path, crs: str | None, labels: str, as_json: bool) -> None:
       tdb info samp11.txt --crs EPSG:32632 --labels isprs
       tdb info area.tdb          # a terrain database: versions and extents
     """
+    from tdb.database import is_database
+
+    if is_database(path):
+        _database_info(path, as_json)
+        return
     from ingest.readers import read
     from ingest.summary import format_summary, summarize
 
     info = summarize(read(path, crs=crs, labels=labels, validate=True))
     click.echo(json.dumps(info, indent=2) if as_json else format_summary(info))
+
+
+def _database_info(path: Path, as_json: bool) -> None:
+    import tdb
+
+    with tdb.open(path) as db:
+        versions = db.versions()
+        doc = {
+            "database": str(path),
+            "schema_version": db.schema_version(),
+            "versions": [
+                {"name": v.name, "acquired": v.acquired.isoformat() if v.acquired else None, "source": v.source,
+                 "created": v.created, "params": v.params, "stats": v.stats}
+                for v in versions
+            ],
+        }
+    if as_json:
+        click.echo(json.dumps(doc, indent=2))
+        return
+    click.echo(f"database:    {path} (schema {doc['schema_version']}), {len(versions)} version(s)")
+    for v in versions:
+        s = v.stats
+        b = s.get("bounds", [0, 0, 0, 0])
+        click.echo(f"- {v.name}: acquired {v.acquired or 'unknown'}, from {v.source}")
+        click.echo(f"    extent x {b[0]:.1f} .. {b[2]:.1f}, y {b[1]:.1f} .. {b[3]:.1f}")
+        click.echo(f"    tiles 2/4/8/16 m: {s.get('tiles_2m')}/{s.get('tiles_4m')}/{s.get('tiles_8m')}/{s.get('tiles_16m')}; "
+                   f"points kept {s.get('kept_points'):,} of {s.get('dense_posts'):,} posts "
+                   f"({s.get('reduction_pct')} % removed, RMSE {s.get('rmse_m')} m, max {s.get('max_error_m')} m)")
+        click.echo(f"    ground noise {s.get('noise_m')} m, flat threshold {s.get('flat_threshold_m')} m, "
+                   f"method {v.params.get('method')}")

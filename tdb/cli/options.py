@@ -25,3 +25,25 @@ def input_options(func: F) -> F:
         "--crs", default=None, help="Coordinate system of the input, e.g. EPSG:25832 (overrides the file's)."
     )(func)
     return func
+
+
+def parse_bbox(_ctx: click.Context | None, _param: click.Parameter | None, value: str | None
+               ) -> tuple[float, float, float, float] | None:
+    """``x0,y0,x1,y1`` → a tuple, with a clear message for anything else."""
+    if value is None:
+        return None
+    try:
+        parts = [float(v) for v in value.split(",")]
+    except ValueError:
+        raise click.BadParameter(f"{value!r}: expected four numbers x0,y0,x1,y1") from None
+    if len(parts) != 4:
+        raise click.BadParameter(f"{value!r}: expected four numbers x0,y0,x1,y1")
+    x0, y0, x1, y1 = parts
+    if not (x1 > x0 and y1 > y0):
+        raise click.BadParameter(f"{value!r}: need x0 < x1 and y0 < y1")
+    return (x0, y0, x1, y1)
+
+
+def bbox_option(*, required: bool = False) -> Callable[[F], F]:
+    return click.option("--bbox", callback=parse_bbox, required=required,
+                        help="Area x0,y0,x1,y1 in the database's CRS (metres).")

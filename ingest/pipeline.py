@@ -1,0 +1,129 @@
+"""Ingest: point cloud → ground → dense model → categories → reduction → pyramid → database."""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ingest.dtm import DEFAULT_RESOLUTION, dense_model
+from ingest.ground import classify_ground
+from ingest.noise import ground_noise
+from ingest.pyramid import SUBGRID, TerrainModel, build
+from ingest.readers import read
+from tdb.cloud import PointCloud
+from tdb.database import Database, Version
+from tdb.options import GroundMethod, parse
+from tdb.raster import Raster
+from tdb.units import to_metres
+
+MIN_FLAT = 0.10  # m: below this a threshold would call noise a form
+NOISE_FACTOR = 5.0  # flat threshold = this × the measured ground noise
+
+
+@dataclass(frozen=True)
+class Survey:
+    """Everything ingest derives from one point cloud before it is stored."""
+
+    cloud: PointCloud
+    ground: np.ndarray
+    dtm: Raster
+    noise: float
+    flat_threshold: float
+    model: TerrainModel
+
+
+def flat_threshold_for(noise: float) -> float:
+    return max(MIN_FLAT, NOISE_FACTOR * noise)
+
+
+def survey(
+    cloud: PointCloud,
+    *,
+    method: str | GroundMethod = GroundMethod.AUTO,
+    resolution: float = DEFAULT_RESOLUTION,
+    flat_threshold: float | None = None,
+    assume_metres: bool = False,
+    stage: Any = None,
+) -> Survey:
+    """Derive the terrain model of one cloud (pure: nothing is written).
+
+    ``stage(name)`` is called as each step starts (for progress display).
+    """
+    report = stage or (lambda _name: None)
+    report("units")
+    metric = to_metres(cloud, assume_metres=assume_metres)
+    report("ground filter")
+    ground = classify_ground(metric, method=parse(GroundMethod, method))
+    report("dense model")
+    gxyz = metric.xyz[ground]
+    dtm = dense_model(gxyz, resolution=resolution, crs=metric.crs)
+    noise = ground_noise(gxyz)
+    threshold = flat_threshold if flat_threshold is not None else flat_threshold_for(noise)
+    report("categories and reduction")
+    model = build(dtm, flat_threshold=threshold, n=SUBGRID)
+    return Survey(metric, ground, dtm, noise, threshold, model)
+
+
+def ingest(
+    source: str | os.PathLike[str] | PointCloud,
+    db: Database,
+    *,
+    version: str,
+    acquired: dt.date | None = None,
+    method: str | GroundMethod = GroundMethod.AUTO,
+    resolution: float = DEFAULT_RESOLUTION,
+    flat_threshold: float | None = None,
+    replace: bool = False,
+    crs: Any = None,
+    assume_metres: bool = False,
+    progress: bool = False,
+) -> Version:
+    """Ingest one survey into ``db`` as ``version``, in one transaction.
+
+    Raises
+    ------
+    VersionExistsError
+        If ``version`` exists and ``replace`` is false (checked before any work).
+    """
+    from tqdm import tqdm
+
+    if not replace and any(v.name == version for v in db.versions()):
+        from tdb.errors import VersionExistsError
+
+        raise VersionExistsError(f"{db.name}: version {version!r} exists (use --replace)")
+    steps = ["read", "units", "ground filter", "dense model", "categories and reduction", "database"]
+    bar = tqdm(total=len(steps), disable=not progress, unit="step", bar_format="{desc:<28} {bar} {n}/{total} [{elapsed}]")
+
+    def stage(name: str) -> None:
+        bar.set_description(name)
+        bar.update(0 if name == "read" else 1)
+
+    stage("read")
+    cloud = source if isinstance(source, PointCloud) else read(source, crs=crs)
+    result = survey(cloud, method=method, resolution=resolution, flat_threshold=flat_threshold,
+                    assume_metres=assume_metres, stage=stage)
+    stage("database")
+    m = result.model
+    stats = dict(m.stats, ground_points=int(result.ground.sum()), points=len(cloud),
+                 noise_m=round(result.noise, 4), flat_threshold_m=round(result.flat_threshold, 3),
+                 bounds=list(result.dtm.bounds))
+    params = {"method": str(parse(GroundMethod, method)), "resolution": resolution, "subgrid": SUBGRID,
+              "flat_threshold": result.flat_threshold}
+    v = db.write_version(
+        version,
+        levels={lv: (t.xg, t.yg, t.code) for lv, t in m.levels.items()},
+        points=(m.x, m.y, m.z, m.n),
+        acquired=acquired,
+        source=str(cloud.source),
+        crs=None if result.cloud.crs is None else result.cloud.crs.to_wkt(),
+        params=params,
+        stats=stats,
+        replace=replace,
+    )
+    bar.update(1)
+    bar.close()
+    return v

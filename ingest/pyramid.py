@@ -1,0 +1,111 @@
+"""The terrain model of one survey: categories at 2, 4, 8 and 16 m and the kept points."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ingest.categorise import categorise
+from ingest.ground.tin import barycentric, locate, triangulate
+from ingest.reduce import kept_nodes, level_bit
+from ingest.tiles import LEVELS, node_grid
+from tdb.categories import NO_DATA
+from tdb.raster import Raster
+
+SUBGRID = 5
+
+
+@dataclass(frozen=True)
+class LevelTiles:
+    """Tiles of one level: lower-left corners in whole metres and category codes."""
+
+    level: int
+    xg: NDArray[np.int64]
+    yg: NDArray[np.int64]
+    code: NDArray[np.uint8]
+
+
+@dataclass(frozen=True)
+class TerrainModel:
+    """Categories per level, and the kept points (x, y, z, n) with their level masks."""
+
+    levels: dict[int, LevelTiles]
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    z: NDArray[np.float64]
+    n: NDArray[np.uint8]
+    stats: dict[str, Any] = field(default_factory=dict)
+
+
+def build(dtm: Raster, *, flat_threshold: float, n: int = SUBGRID, levels: tuple[int, ...] = LEVELS) -> TerrainModel:
+    """Categorise every tile of every level and reduce the dense model to the kept points.
+
+    Parameters
+    ----------
+    dtm : the dense ground model (node-registered posts, NaN = no data).
+    flat_threshold : tiles with a smaller height range (m) are flat.
+    n : sub-grid size per tile side.
+    """
+    unit = min(levels) / (n - 1)
+    out: dict[int, LevelTiles] = {}
+    keys: list[NDArray[np.int64]] = []
+    bits: list[NDArray[np.uint8]] = []
+    for level in levels:
+        grid = node_grid(dtm, level, n=n)
+        tiles, ti, tj = grid.tiles(n)
+        some = ~np.isnan(tiles).all(axis=1)
+        tiles, ti, tj = tiles[some], ti[some], tj[some]
+        codes = categorise(tiles, flat_threshold=flat_threshold, n=n)
+        out[level] = LevelTiles(level, ti * level, tj * level, codes)
+        kept = kept_nodes(grid, codes, ti, tj, n=n, unit=unit)
+        keys.append(np.column_stack([kept.kx, kept.ky]))
+        bits.append(np.full(len(kept.kx), level_bit(level), np.uint8))
+    allkeys = np.vstack(keys)
+    uniq, inverse = np.unique(allkeys, axis=0, return_inverse=True)
+    mask = np.zeros(len(uniq), np.uint8)
+    np.bitwise_or.at(mask, inverse.ravel(), np.concatenate(bits))
+    x = uniq[:, 0] * unit
+    y = uniq[:, 1] * unit
+    z = dtm.sample(x, y)
+    good = ~np.isnan(z)
+    model = TerrainModel(out, x[good], y[good], z[good], mask[good])
+    return TerrainModel(model.levels, model.x, model.y, model.z, model.n, reduction_stats(dtm, model))
+
+
+def reduction_stats(dtm: Raster, model: TerrainModel, *, level_bit_mask: int = 1) -> dict[str, Any]:
+    """Share of dense posts removed and the vertical error of the surface rebuilt from the kept 2 m points."""
+    valid = ~np.isnan(dtm.data)
+    posts = int(valid.sum())
+    keep = (model.n & level_bit_mask) > 0
+    stats: dict[str, Any] = {
+        "dense_posts": posts,
+        "kept_points": int(len(model.x)),
+        "kept_level2": int(keep.sum()),
+        "reduction_pct": round(100.0 * (1 - keep.sum() / max(posts, 1)), 2),
+    }
+    if keep.sum() >= 3:
+        xs, ys = dtm.centres()
+        gx, gy = np.meshgrid(xs, ys)
+        q = np.column_stack([gx[valid], gy[valid]])
+        rebuilt = _tin_at(np.column_stack([model.x[keep], model.y[keep], model.z[keep]]), q)
+        err = rebuilt - dtm.data[valid]
+        ok = ~np.isnan(err)
+        stats["rmse_m"] = round(float(np.sqrt(np.mean(err[ok] ** 2))), 4)
+        stats["max_error_m"] = round(float(np.abs(err[ok]).max()), 4)
+    for level, tiles in model.levels.items():
+        stats[f"tiles_{level}m"] = int(len(tiles.code))
+        stats[f"no_data_{level}m"] = int((tiles.code == NO_DATA).sum())
+    return stats
+
+
+def _tin_at(xyz: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
+    tri = triangulate(xyz[:, :2])
+    s = locate(tri, q)
+    out = np.full(len(q), np.nan)
+    ok = s >= 0
+    lam = barycentric(tri, s[ok], q[ok])
+    out[ok] = (lam * xyz[tri.simplices[s[ok]], 2]).sum(axis=1)
+    return out

@@ -1,0 +1,55 @@
+"""Areas of interest: the stored points triangulated, as a mesh or a surface grid."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ingest.ground.tin import barycentric, locate, triangulate
+from tdb.database import Area
+from tdb.errors import InputError, TdbIOError
+from tdb.raster import Raster
+
+
+def area_surface(area: Area, *, cell: float | None = None, crs: Any = None) -> Raster:
+    """The surface rebuilt from the area's points (linear TIN), on a grid of ``cell`` m
+    (default: the level's sub-grid spacing, level / 4)."""
+    if len(area.x) < 3:
+        raise InputError(f"the area holds {len(area.x)} points; nothing to triangulate")
+    cell = cell or area.level / 4
+    xyz = np.column_stack([area.x, area.y, area.z])
+    tri = triangulate(xyz[:, :2])
+    x0, y0, x1, y1 = area.bbox
+    xs = np.arange(np.ceil(x0 / cell) * cell, x1 + 1e-9, cell)
+    ys = np.arange(np.floor(y1 / cell) * cell, y0 - 1e-9, -cell)
+    gx, gy = np.meshgrid(xs, ys)
+    q = np.column_stack([gx.ravel(), gy.ravel()])
+    s = locate(tri, q)
+    z = np.full(len(q), np.nan)
+    ok = s >= 0
+    z[ok] = (barycentric(tri, s[ok], q[ok]) * xyz[tri.simplices[s[ok]], 2]).sum(axis=1)
+    return Raster(z.reshape(gx.shape), float(xs[0] - cell / 2), float(ys[0] + cell / 2), cell, crs)
+
+
+def write_ply(path: str | os.PathLike[str], area: Area) -> None:
+    """The area's points as a triangulated mesh in ASCII PLY (coordinates relative to the bbox corner
+    would lose georeference, so they are written as they are, in metres)."""
+    xyz = np.column_stack([area.x, area.y, area.z])
+    if len(xyz) < 3:
+        raise InputError("fewer than 3 points in the area; no mesh")
+    faces = triangulate(xyz[:, :2]).simplices
+    header = (
+        "ply\nformat ascii 1.0\ncomment tdb area of interest\n"
+        f"element vertex {len(xyz)}\nproperty double x\nproperty double y\nproperty double z\n"
+        f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    try:
+        with Path(path).open("w") as fh:
+            fh.write(header)
+            np.savetxt(fh, xyz, fmt="%.3f")
+            np.savetxt(fh, np.column_stack([np.full(len(faces), 3), faces]), fmt="%d")
+    except OSError as exc:
+        raise TdbIOError(f"{path}: cannot write ({exc.strerror})") from None

@@ -1,0 +1,30 @@
+"""``tdb categories``: the 115 tile categories, listed or drawn."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+
+@click.command("categories")
+@click.option("--atlas", type=click.Path(path_type=Path), help="Draw all 115 canonical templates to this PNG.")
+@click.option("--subgrid", type=int, default=5, show_default=True, help="Sub-grid size per tile side (>= 5).")
+def command(atlas: Path | None, subgrid: int) -> None:
+    """List the tile categories: code, inclination, feature, orientation.
+
+    \b
+    Examples:
+      tdb categories
+      tdb categories --atlas atlas.png
+    """
+    from tdb.categories import all_categories
+
+    if atlas:
+        from tdb.pictures import category_atlas
+
+        category_atlas(atlas, n=subgrid)
+        click.echo(f"wrote {atlas}")
+        return
+    for c in all_categories():
+        click.echo(f"{c.code:4d}  {c.description}")

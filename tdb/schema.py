@@ -1,0 +1,97 @@
+"""The terrain database schema (SQLAlchemy Core), portable to SQLite and PostgreSQL.
+
+``versions``: one row per survey of the area. ``tdb``: the kept points (x, y, z)
+with the 4-bit level mask n. ``c2`` … ``c16``: the category of every tile, keyed
+by its lower-left corner in whole metres. ``categories``: what each code means.
+``meta``: the schema version.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import (
+    Column,
+    Date,
+    Float,
+    ForeignKey,
+    Integer,
+    MetaData,
+    SmallInteger,
+    String,
+    Table,
+    Text,
+)
+
+SCHEMA_VERSION = 1
+LEVEL_TABLES = {2: "c2", 4: "c4", 8: "c8", 16: "c16"}
+
+metadata = MetaData()
+
+meta = Table("meta", metadata, Column("key", String(64), primary_key=True), Column("value", Text, nullable=False))
+
+versions = Table(
+    "versions",
+    metadata,
+    Column("id", Integer, primary_key=True, autoincrement=True),
+    Column("name", String(200), nullable=False, unique=True),
+    Column("acquired", Date, nullable=True),
+    Column("source", Text, nullable=True),
+    Column("crs", Text, nullable=True),
+    Column("params", Text, nullable=False, default="{}"),
+    Column("stats", Text, nullable=False, default="{}"),
+    Column("created", String(32), nullable=False),
+)
+
+categories = Table(
+    "categories",
+    metadata,
+    Column("code", SmallInteger, primary_key=True, autoincrement=False),
+    Column("inclination", SmallInteger, nullable=False),
+    Column("feature", SmallInteger, nullable=False),
+    Column("orient_from", SmallInteger, nullable=True),
+    Column("orient_to", SmallInteger, nullable=True),
+    Column("flat_side", SmallInteger, nullable=False),
+    Column("description", String(200), nullable=False),
+)
+
+# Each table's B-tree index is its primary key; on SQLite the rows live in that
+# B-tree itself (WITHOUT ROWID), which halves the work of every insert.
+points = Table(
+    "tdb",
+    metadata,
+    Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+    Column("x", Float(53), primary_key=True),
+    Column("y", Float(53), primary_key=True),
+    Column("z", Float(53), nullable=False),
+    Column("n", SmallInteger, nullable=False),
+    sqlite_with_rowid=False,
+)
+
+
+def _level_table(name: str) -> Table:
+    table = Table(
+        name,
+        metadata,
+        Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+        Column("xg", Integer, primary_key=True, autoincrement=False),
+        Column("yg", Integer, primary_key=True, autoincrement=False),
+        Column("c", SmallInteger, nullable=False),
+        sqlite_with_rowid=False,
+    )
+    return table
+
+
+level_tables = {level: _level_table(name) for level, name in LEVEL_TABLES.items()}
+
+
+def ddl(dialect_name: str = "sqlite") -> str:
+    """CREATE statements for every table and index, for ``schemas/``."""
+    from sqlalchemy.dialects import postgresql, sqlite
+    from sqlalchemy.schema import CreateIndex, CreateTable
+
+    dialect = {"sqlite": sqlite.dialect(), "postgresql": postgresql.dialect()}[dialect_name]
+    parts = [f"-- tdb schema version {SCHEMA_VERSION} ({dialect_name}); generated from tdb/schema.py"]
+    for table in metadata.sorted_tables:
+        parts.append(str(CreateTable(table).compile(dialect=dialect)).strip() + ";")
+        for index in sorted(table.indexes, key=lambda i: str(i.name)):
+            parts.append(str(CreateIndex(index).compile(dialect=dialect)).strip() + ";")
+    return "\n\n".join(parts) + "\n"
