@@ -96,7 +96,9 @@ def ingest(
 
         raise VersionExistsError(f"{db.name}: version {version!r} exists (use --replace)")
     steps = ["read", "units", "ground filter", "dense model", "categories and reduction", "database"]
-    bar = tqdm(total=len(steps), disable=not progress, unit="step", bar_format="{desc:<28} {bar} {n}/{total} [{elapsed}]")
+    bar = tqdm(
+        total=len(steps), disable=not progress, unit="step", bar_format="{desc:<28} {bar} {n}/{total} [{elapsed}]"
+    )
 
     def stage(name: str) -> None:
         bar.set_description(name)
@@ -104,15 +106,30 @@ def ingest(
 
     stage("read")
     cloud = source if isinstance(source, PointCloud) else read(source, crs=crs)
-    result = survey(cloud, method=method, resolution=resolution, flat_threshold=flat_threshold,
-                    assume_metres=assume_metres, stage=stage)
+    result = survey(
+        cloud,
+        method=method,
+        resolution=resolution,
+        flat_threshold=flat_threshold,
+        assume_metres=assume_metres,
+        stage=stage,
+    )
     stage("database")
     m = result.model
-    stats = dict(m.stats, ground_points=int(result.ground.sum()), points=len(cloud),
-                 noise_m=round(result.noise, 4), flat_threshold_m=round(result.flat_threshold, 3),
-                 bounds=list(result.dtm.bounds))
-    params = {"method": str(parse(GroundMethod, method)), "resolution": resolution, "subgrid": SUBGRID,
-              "flat_threshold": result.flat_threshold}
+    stats = dict(
+        m.stats,
+        ground_points=int(result.ground.sum()),
+        points=len(cloud),
+        noise_m=round(result.noise, 4),
+        flat_threshold_m=round(result.flat_threshold, 3),
+        bounds=list(result.dtm.bounds),
+    )
+    params = {
+        "method": str(parse(GroundMethod, method)),
+        "resolution": resolution,
+        "subgrid": SUBGRID,
+        "flat_threshold": result.flat_threshold,
+    }
     v = db.write_version(
         version,
         levels={lv: (t.xg, t.yg, t.code) for lv, t in m.levels.items()},

@@ -40,7 +40,9 @@ class TerrainModel:
     stats: dict[str, Any] = field(default_factory=dict)
 
 
-def build(dtm: Raster, *, flat_threshold: float, n: int = SUBGRID, levels: tuple[int, ...] = LEVELS) -> TerrainModel:
+def build(
+    dtm: Raster, *, flat_threshold: float, n: int = SUBGRID, levels: tuple[int, ...] = LEVELS
+) -> TerrainModel:
     """Categorise every tile of every level and reduce the dense model to the kept points.
 
     Parameters
@@ -67,8 +69,8 @@ def build(dtm: Raster, *, flat_threshold: float, n: int = SUBGRID, levels: tuple
     uniq, inverse = np.unique(allkeys, axis=0, return_inverse=True)
     mask = np.zeros(len(uniq), np.uint8)
     np.bitwise_or.at(mask, inverse.ravel(), np.concatenate(bits))
-    x = uniq[:, 0] * unit
-    y = uniq[:, 1] * unit
+    x = (uniq[:, 0] * unit).astype(np.float64)
+    y = (uniq[:, 1] * unit).astype(np.float64)
     z = dtm.sample(x, y)
     good = ~np.isnan(z)
     model = TerrainModel(out, x[good], y[good], z[good], mask[good])
@@ -82,7 +84,7 @@ def reduction_stats(dtm: Raster, model: TerrainModel, *, level_bit_mask: int = 1
     keep = (model.n & level_bit_mask) > 0
     stats: dict[str, Any] = {
         "dense_posts": posts,
-        "kept_points": int(len(model.x)),
+        "kept_points": len(model.x),
         "kept_level2": int(keep.sum()),
         "reduction_pct": round(100.0 * (1 - keep.sum() / max(posts, 1)), 2),
     }
@@ -96,7 +98,7 @@ def reduction_stats(dtm: Raster, model: TerrainModel, *, level_bit_mask: int = 1
         stats["rmse_m"] = round(float(np.sqrt(np.mean(err[ok] ** 2))), 4)
         stats["max_error_m"] = round(float(np.abs(err[ok]).max()), 4)
     for level, tiles in model.levels.items():
-        stats[f"tiles_{level}m"] = int(len(tiles.code))
+        stats[f"tiles_{level}m"] = len(tiles.code)
         stats[f"no_data_{level}m"] = int((tiles.code == NO_DATA).sum())
     return stats
 

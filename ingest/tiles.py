@@ -49,10 +49,12 @@ def node_grid(dtm: Raster, level: int, *, n: int = 5) -> NodeGrid:
     """
     s = level / (n - 1)
     x0, y0, x1, y1 = dtm.bounds
-    ix0 = int(np.floor(x0 / level)) * (n - 1)
-    iy0 = int(np.floor(y0 / level)) * (n - 1)
-    ix1 = int(np.ceil(x1 / level)) * (n - 1)
-    iy1 = int(np.ceil(y1 / level)) * (n - 1)
+    half = dtm.cell / 2  # the data lie on the posts, half a cell inside the raster's edges
+    x0, y0, x1, y1 = x0 + half, y0 + half, x1 - half, y1 - half
+    ix0 = int(np.floor(x0 / level + 1e-9)) * (n - 1)
+    iy0 = int(np.floor(y0 / level + 1e-9)) * (n - 1)
+    ix1 = int(np.ceil(x1 / level - 1e-9)) * (n - 1)
+    iy1 = int(np.ceil(y1 / level - 1e-9)) * (n - 1)
     xs = np.arange(ix0, ix1 + 1) * s
     ys = np.arange(iy0, iy1 + 1) * s
     source = _smoothed(dtm, sigma=0.5 * s / dtm.cell) if s > dtm.cell * 1.01 else dtm

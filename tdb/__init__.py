@@ -6,6 +6,6 @@ __version__ = "0.1.0"
 
 __all__ = ["TdbError", "__version__"]
 
-from tdb.database import Database, open  # noqa: E402,A004 - tdb.open() like rasterio.open()
+from tdb.database import Database, open
 
 __all__ += ["Database", "open"]

@@ -52,7 +52,7 @@ def is_database(path: str | os.PathLike[str]) -> bool:
         return False
 
 
-def open(path: str | os.PathLike[str], *, create: bool = False) -> Database:  # noqa: A001 - like rasterio.open
+def open(path: str | os.PathLike[str], *, create: bool = False) -> Database:
     """Open a terrain database: an SQLite file path or a SQLAlchemy URL (``postgresql://…``).
 
     Parameters
@@ -145,7 +145,9 @@ class Database:
             raise DatabaseError(f"{self.name}: not a tdb database (tables: {', '.join(sorted(names))})")
         found = self.schema_version()
         if found > schema.SCHEMA_VERSION:
-            raise DatabaseError(f"{self.name}: schema version {found} is newer than this tdb ({schema.SCHEMA_VERSION})")
+            raise DatabaseError(
+                f"{self.name}: schema version {found} is newer than this tdb ({schema.SCHEMA_VERSION})"
+            )
 
     def _create_schema(self) -> None:
         with self.transaction() as conn:
@@ -180,8 +182,16 @@ class Database:
         with self.engine.connect() as conn:
             rows = conn.execute(select(schema.versions).order_by(schema.versions.c.id)).mappings().all()
         return [
-            Version(r["id"], r["name"], r["acquired"], r["source"], r["crs"], json.loads(r["params"]),
-                    json.loads(r["stats"]), r["created"])
+            Version(
+                r["id"],
+                r["name"],
+                r["acquired"],
+                r["source"],
+                r["crs"],
+                json.loads(r["params"]),
+                json.loads(r["stats"]),
+                r["created"],
+            )
             for r in rows
         ]
 
@@ -221,11 +231,17 @@ class Database:
                 self._delete(conn, old)
             vid = conn.execute(
                 schema.versions.insert().values(
-                    name=name, acquired=acquired, source=source, crs=crs,
-                    params=json.dumps(params or {}), stats=json.dumps(stats or {}, default=float),
+                    name=name,
+                    acquired=acquired,
+                    source=source,
+                    crs=crs,
+                    params=json.dumps(params or {}),
+                    stats=json.dumps(stats or {}, default=float),
                     created=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
                 )
-            ).inserted_primary_key[0]
+            ).inserted_primary_key
+            assert vid is not None
+            vid = vid[0]
             for level, (xg, yg, code) in levels.items():
                 order = np.lexsort((yg, xg))  # key order: B-tree pages fill in sequence
                 xg, yg, code = xg[order], yg[order], code[order]
@@ -266,23 +282,29 @@ class Database:
 
     # -- reading ----------------------------------------------------------------------------------
 
-    def tiles(self, version: str, *, level: int = 2, bbox: tuple[float, float, float, float] | None = None
-              ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]:
+    def tiles(
+        self, version: str, *, level: int = 2, bbox: tuple[float, float, float, float] | None = None
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]:
         """(xg, yg, code) of the tiles of ``version`` at ``level`` touching ``bbox``."""
         vid = self.version(version).id
         table = schema.level_tables[_level(level)]
         q = select(table.c.xg, table.c.yg, table.c.c).where(table.c.version == vid)
         if bbox is not None:
             x0, y0, x1, y1 = bbox
-            q = q.where(table.c.xg > int(np.floor(x0)) - level, table.c.xg < x1,
-                        table.c.yg > int(np.floor(y0)) - level, table.c.yg < y1)
+            q = q.where(
+                table.c.xg > int(np.floor(x0)) - level,
+                table.c.xg < x1,
+                table.c.yg > int(np.floor(y0)) - level,
+                table.c.yg < y1,
+            )
         with self.engine.connect() as conn:
             rows = conn.execute(q.order_by(table.c.xg, table.c.yg)).all()
         arr = np.array(rows, dtype=np.int64).reshape(-1, 3)
         return arr[:, 0], arr[:, 1], arr[:, 2].astype(np.uint8)
 
-    def points(self, version: str, *, level: int = 2, bbox: tuple[float, float, float, float] | None = None
-               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
+    def points(
+        self, version: str, *, level: int = 2, bbox: tuple[float, float, float, float] | None = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
         """(x, y, z, n) of the kept points of ``version`` belonging to ``level`` inside ``bbox``."""
         vid = self.version(version).id
         t = schema.points

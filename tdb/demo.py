@@ -20,7 +20,7 @@ def done(t0: float, what: str) -> None:
     print(f"   {what}  ({time.perf_counter() - t0:.1f} s)")
 
 
-def run(out: Path, *, seed: int = 7, size: float = 400.0, density: float = 4.0) -> None:
+def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) -> None:
     from ingest.readers import read
     from ingest.summary import format_summary, summarize
     from ingest.synth import apply_changes, changes_truth, make_scene, scene_truth, write_scene
@@ -43,6 +43,40 @@ def run(out: Path, *, seed: int = 7, size: float = 400.0, density: float = 4.0) 
     t = step("what the first survey holds (tdb info)")
     print("   " + format_summary(summarize(read(out / "survey_2020.laz"))).replace("\n", "\n   "))
     done(t, "read back")
+
+    import tdb
+    from ingest.pipeline import ingest
+    from queries.area import area_surface, write_ply
+    from tdb.geotiff import write_geotiff
+    from tdb.pictures import area_picture, category_atlas
+
+    db_path = out / "park.tdb"
+    for suffix in ("", "-wal", "-shm"):
+        Path(f"{db_path}{suffix}").unlink(missing_ok=True)
+    with tdb.open(db_path, create=True) as db:
+        for name, laz, day in (
+            ("2020", "survey_2020.laz", "2020-04-01"),
+            ("2024", "survey_2024.laz", "2024-04-01"),
+        ):
+            t = step(f"ingest {laz} as version {name} (ground → dense model → categories → database)")
+            import datetime as dt
+
+            v = ingest(out / laz, db, version=name, acquired=dt.date.fromisoformat(day))
+            s = v.stats
+            done(
+                t,
+                f"{s['tiles_2m']:,} tiles of 2 m; {s['kept_points']:,} of {s['dense_posts']:,} posts kept "
+                f"({s['reduction_pct']} % removed, RMSE {s['rmse_m']} m)",
+            )
+        t = step("area of interest: mesh, surface and category picture (tdb aoi)")
+        x0, y0 = scene.bounds[:2]
+        area = db.aoi((x0 + 25, y0 + 25, x0 + 225, y0 + 225), level=2, version="2020")
+        surface = area_surface(area, crs=db.crs("2020"))
+    write_ply(out / "aoi.ply", area)
+    write_geotiff(out / "aoi.tif", surface)
+    area_picture(out / "aoi.png", area, surface)
+    category_atlas(out / "atlas.png")
+    done(t, f"{out / 'aoi.ply'}, {out / 'aoi.tif'}, {out / 'aoi.png'}, {out / 'atlas.png'}")
 
 
 def main(argv: list[str] | None = None) -> int:

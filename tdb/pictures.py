@@ -57,13 +57,15 @@ def category_atlas(path: str | os.PathLike[str], *, n: int = 5) -> None:
     for cat, ax in zip(all_categories(), axes.ravel()):
         z = t[cat.code].reshape(n, n)
         ax.imshow(_upsample(z, 8), cmap="gist_earth", origin="lower", extent=(0, 1, 0, 1), vmin=0, vmax=1.15)
-        ax.contour(np.linspace(0, 1, n), np.linspace(0, 1, n), z, levels=[0.25, 0.5, 0.75], colors="k",
-                   linewidths=0.4)
+        ax.contour(
+            np.linspace(0, 1, n), np.linspace(0, 1, n), z, levels=[0.25, 0.5, 0.75], colors="k", linewidths=0.4
+        )
         keep = marks[cat.code]
         ax.plot(uv[keep, 0], uv[keep, 1], "o", color="red", ms=3)
         ax.set_title(f"{cat.code}: {cat.description}", fontsize=5.5, wrap=True)
-    fig.suptitle("tdb: the 115 tile categories (north up, dark low to light high; red: feature nodes kept)",
-                 fontsize=13)
+    fig.suptitle(
+        "tdb: the 115 tile categories (north up, dark low to light high; red: feature nodes kept)", fontsize=13
+    )
     fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(path, dpi=100)
     plt.close(fig)

@@ -76,3 +76,37 @@ def test_ground_command(runner, tmp_path):
     agree = ((a.classification == 2) == (b.classification == 2)).mean()
     assert agree > 0.95
     assert dtm.exists()
+
+
+def test_ingest_info_aoi_categories(runner, tmp_path):
+    src = tmp_path / "s.laz"
+    assert runner.invoke(main, ["synth", "--size", "100", "--density", "1", "--out", str(src)]).exit_code == 0
+    db = tmp_path / "a.tdb"
+    r = runner.invoke(main, ["ingest", str(src), "--db", str(db), "--version", "v1", "--date", "2021-05-01"])
+    assert r.exit_code == 0, r.output
+    again = runner.invoke(main, ["ingest", str(src), "--db", str(db), "--version", "v1"])
+    assert again.exit_code == 1 and "exists" in again.stderr
+    info = runner.invoke(main, ["info", str(db), "--json"])
+    import json
+
+    doc = json.loads(info.output)
+    assert doc["versions"][0]["name"] == "v1" and doc["versions"][0]["acquired"] == "2021-05-01"
+    out = tmp_path / "area"
+    r = runner.invoke(main, ["aoi", "--db", str(db), "--bbox", "500010,5500010,500060,5500060", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    for suffix in (".ply", ".tif", ".png"):
+        assert out.with_suffix(suffix).stat().st_size > 100
+    assert out.with_suffix(".ply").read_text().startswith("ply")
+    r = runner.invoke(main, ["categories"])
+    assert r.exit_code == 0 and len(r.output.strip().splitlines()) == 115
+    r = runner.invoke(main, ["categories", "--atlas", str(tmp_path / "atlas.png")])
+    assert r.exit_code == 0 and (tmp_path / "atlas.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_bad_date_and_bbox(runner, tmp_path):
+    r = runner.invoke(
+        main, ["ingest", "x.laz", "--db", str(tmp_path / "a.tdb"), "--version", "v", "--date", "31/12"]
+    )
+    assert r.exit_code != 0 and "date" in r.output
+    r = runner.invoke(main, ["aoi", "--db", str(tmp_path / "a.tdb"), "--bbox", "3,3,1,1"])
+    assert r.exit_code != 0 and "x0 < x1" in r.output

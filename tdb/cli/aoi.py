@@ -14,9 +14,16 @@ from tdb.cli.options import bbox_option
 @click.option("--version", "version", help="Survey name (optional when the database holds one).")
 @bbox_option(required=True)
 @click.option("--level", type=click.Choice(["2", "4", "8", "16"]), default="2", show_default=True)
-@click.option("--out", type=click.Path(path_type=Path), default=Path("aoi"), show_default=True,
-              help="Output prefix: writes PREFIX.ply, PREFIX.tif and PREFIX.png.")
-def command(db_path: Path, version: str | None, bbox: tuple[float, float, float, float], level: str, out: Path) -> None:
+@click.option(
+    "--out",
+    type=click.Path(path_type=Path),
+    default=Path("aoi"),
+    show_default=True,
+    help="Output prefix: writes PREFIX.ply, PREFIX.tif and PREFIX.png.",
+)
+def command(
+    db_path: Path, version: str | None, bbox: tuple[float, float, float, float], level: str, out: Path
+) -> None:
     """Read an area from the database: the kept points triangulated (PLY), the surface
     rebuilt on a grid (GeoTIFF) and a hillshade coloured by tile category (PNG).
 

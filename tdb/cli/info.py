@@ -44,8 +44,14 @@ def _database_info(path: Path, as_json: bool) -> None:
             "database": str(path),
             "schema_version": db.schema_version(),
             "versions": [
-                {"name": v.name, "acquired": v.acquired.isoformat() if v.acquired else None, "source": v.source,
-                 "created": v.created, "params": v.params, "stats": v.stats}
+                {
+                    "name": v.name,
+                    "acquired": v.acquired.isoformat() if v.acquired else None,
+                    "source": v.source,
+                    "created": v.created,
+                    "params": v.params,
+                    "stats": v.stats,
+                }
                 for v in versions
             ],
         }
@@ -58,8 +64,13 @@ def _database_info(path: Path, as_json: bool) -> None:
         b = s.get("bounds", [0, 0, 0, 0])
         click.echo(f"- {v.name}: acquired {v.acquired or 'unknown'}, from {v.source}")
         click.echo(f"    extent x {b[0]:.1f} .. {b[2]:.1f}, y {b[1]:.1f} .. {b[3]:.1f}")
-        click.echo(f"    tiles 2/4/8/16 m: {s.get('tiles_2m')}/{s.get('tiles_4m')}/{s.get('tiles_8m')}/{s.get('tiles_16m')}; "
-                   f"points kept {s.get('kept_points'):,} of {s.get('dense_posts'):,} posts "
-                   f"({s.get('reduction_pct')} % removed, RMSE {s.get('rmse_m')} m, max {s.get('max_error_m')} m)")
-        click.echo(f"    ground noise {s.get('noise_m')} m, flat threshold {s.get('flat_threshold_m')} m, "
-                   f"method {v.params.get('method')}")
+        tiles = "/".join(str(s.get(f"tiles_{lv}m")) for lv in (2, 4, 8, 16))
+        click.echo(
+            f"    tiles 2/4/8/16 m: {tiles}; "
+            f"points kept {s.get('kept_points'):,} of {s.get('dense_posts'):,} posts "
+            f"({s.get('reduction_pct')} % removed, RMSE {s.get('rmse_m')} m, max {s.get('max_error_m')} m)"
+        )
+        click.echo(
+            f"    ground noise {s.get('noise_m')} m, flat threshold {s.get('flat_threshold_m')} m, "
+            f"method {v.params.get('method')}"
+        )

@@ -27,13 +27,27 @@ def _date(_ctx: click.Context, _param: click.Parameter, value: str | None) -> dt
 @click.option("--date", callback=_date, help="Acquisition date, YYYY-MM-DD.")
 @click.option("--method", type=click.Choice(GroundMethod.values()), default="auto", show_default=True)
 @click.option("--resolution", type=float, default=0.5, show_default=True, help="Dense model post spacing (m).")
-@click.option("--flat-threshold", type=float, help="Height range (m) below which a tile is flat "
-              "[default: 5 × the measured ground noise, at least 0.1 m].")
+@click.option(
+    "--flat-threshold",
+    type=float,
+    help="Height range (m) below which a tile is flat [default: 5 × the measured ground noise, at least 0.1 m].",
+)
 @click.option("--replace", is_flag=True, help="Replace an existing version of the same name.")
 @click.option("--assume-metres", is_flag=True, help="Accept a file with no CRS as metres.")
 @input_options
-def command(cloud: Path, db_path: Path, version: str, date: dt.date | None, method: str, resolution: float,
-            flat_threshold: float | None, replace: bool, assume_metres: bool, crs: str | None, labels: str) -> None:
+def command(
+    cloud: Path,
+    db_path: Path,
+    version: str,
+    date: dt.date | None,
+    method: str,
+    resolution: float,
+    flat_threshold: float | None,
+    replace: bool,
+    assume_metres: bool,
+    crs: str | None,
+    labels: str,
+) -> None:
     """Build the terrain model of a survey and store it: ground filter, dense model,
     tile categories at 2/4/8/16 m, reduction, in one transaction.
 
@@ -48,9 +62,21 @@ def command(cloud: Path, db_path: Path, version: str, date: dt.date | None, meth
     from ingest.pipeline import ingest
 
     with tdb.open(db_path, create=True) as db:
-        v = ingest(cloud, db, version=version, acquired=date, method=method, resolution=resolution,
-                   flat_threshold=flat_threshold, replace=replace, crs=crs, assume_metres=assume_metres,
-                   progress=True)
+        v = ingest(
+            cloud,
+            db,
+            version=version,
+            acquired=date,
+            method=method,
+            resolution=resolution,
+            flat_threshold=flat_threshold,
+            replace=replace,
+            crs=crs,
+            assume_metres=assume_metres,
+            progress=True,
+        )
     s = v.stats
-    click.echo(f"version {v.name!r} in {db_path}: {s['tiles_2m']:,} tiles of 2 m, {s['kept_points']:,} points kept "
-               f"of {s['dense_posts']:,} posts ({s['reduction_pct']} % removed, RMSE {s.get('rmse_m')} m)")
+    click.echo(
+        f"version {v.name!r} in {db_path}: {s['tiles_2m']:,} tiles of 2 m, {s['kept_points']:,} points kept "
+        f"of {s['dense_posts']:,} posts ({s['reduction_pct']} % removed, RMSE {s.get('rmse_m')} m)"
+    )

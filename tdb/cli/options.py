@@ -27,8 +27,9 @@ def input_options(func: F) -> F:
     return func
 
 
-def parse_bbox(_ctx: click.Context | None, _param: click.Parameter | None, value: str | None
-               ) -> tuple[float, float, float, float] | None:
+def parse_bbox(
+    _ctx: click.Context | None, _param: click.Parameter | None, value: str | None
+) -> tuple[float, float, float, float] | None:
     """``x0,y0,x1,y1`` → a tuple, with a clear message for anything else."""
     if value is None:
         return None
@@ -45,5 +46,6 @@ def parse_bbox(_ctx: click.Context | None, _param: click.Parameter | None, value
 
 
 def bbox_option(*, required: bool = False) -> Callable[[F], F]:
-    return click.option("--bbox", callback=parse_bbox, required=required,
-                        help="Area x0,y0,x1,y1 in the database's CRS (metres).")
+    return click.option(
+        "--bbox", callback=parse_bbox, required=required, help="Area x0,y0,x1,y1 in the database's CRS (metres)."
+    )

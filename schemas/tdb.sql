@@ -1,0 +1,82 @@
+-- tdb schema version 1 (sqlite); generated from tdb/schema.py
+
+CREATE TABLE categories (
+	code SMALLINT NOT NULL, 
+	inclination SMALLINT NOT NULL, 
+	feature SMALLINT NOT NULL, 
+	orient_from SMALLINT, 
+	orient_to SMALLINT, 
+	flat_side SMALLINT NOT NULL, 
+	description VARCHAR(200) NOT NULL, 
+	PRIMARY KEY (code)
+);
+
+CREATE TABLE meta (
+	"key" VARCHAR(64) NOT NULL, 
+	value TEXT NOT NULL, 
+	PRIMARY KEY ("key")
+);
+
+CREATE TABLE versions (
+	id INTEGER NOT NULL, 
+	name VARCHAR(200) NOT NULL, 
+	acquired DATE, 
+	source TEXT, 
+	crs TEXT, 
+	params TEXT NOT NULL, 
+	stats TEXT NOT NULL, 
+	created VARCHAR(32) NOT NULL, 
+	PRIMARY KEY (id), 
+	UNIQUE (name)
+);
+
+CREATE TABLE c16 (
+	version INTEGER NOT NULL, 
+	xg INTEGER NOT NULL, 
+	yg INTEGER NOT NULL, 
+	c SMALLINT NOT NULL, 
+	PRIMARY KEY (version, xg, yg), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+)
+ WITHOUT ROWID;
+
+CREATE TABLE c2 (
+	version INTEGER NOT NULL, 
+	xg INTEGER NOT NULL, 
+	yg INTEGER NOT NULL, 
+	c SMALLINT NOT NULL, 
+	PRIMARY KEY (version, xg, yg), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+)
+ WITHOUT ROWID;
+
+CREATE TABLE c4 (
+	version INTEGER NOT NULL, 
+	xg INTEGER NOT NULL, 
+	yg INTEGER NOT NULL, 
+	c SMALLINT NOT NULL, 
+	PRIMARY KEY (version, xg, yg), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+)
+ WITHOUT ROWID;
+
+CREATE TABLE c8 (
+	version INTEGER NOT NULL, 
+	xg INTEGER NOT NULL, 
+	yg INTEGER NOT NULL, 
+	c SMALLINT NOT NULL, 
+	PRIMARY KEY (version, xg, yg), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+)
+ WITHOUT ROWID;
+
+CREATE TABLE tdb (
+	version INTEGER NOT NULL, 
+	x FLOAT NOT NULL, 
+	y FLOAT NOT NULL, 
+	z FLOAT NOT NULL, 
+	n SMALLINT NOT NULL, 
+	PRIMARY KEY (version, x, y), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+)
+ WITHOUT ROWID;
