@@ -40,10 +40,10 @@ def delatin_rmse(dtm: np.ndarray, points: int) -> tuple[float, float]:
     filled = fill_nearest(dtm).astype(np.float32)
     rows, cols = filled.shape
     mesh = Delatin(filled, width=cols, height=rows, max_points=points, max_error=0.0)
-    v = mesh.vertices  # (col, row, z)
+    v = mesh.vertices  # (col, rows - 1 - row, z): pydelatin counts rows from the bottom
     tri = triangulate(v[:, :2])
     rr, cc = np.nonzero(valid)
-    q = np.column_stack([cc, rr]).astype(float)
+    q = np.column_stack([cc, rows - 1 - rr]).astype(float)
     s = locate(tri, q)
     z = np.full(len(q), np.nan)
     ok = s >= 0

@@ -29,6 +29,8 @@ from tdb.errors import DatabaseError, TdbIOError, VersionExistsError, VersionNot
 
 SQLITE_MAGIC = b"SQLite format 3\x00"
 BATCH = 50_000
+POINT_LATTICE = 0.5  # every kept point lies on the 2 m tiles' 0.5 m sub-grid (coarser levels on multiples)
+PROBE_CHUNK = 900
 
 
 @dataclass(frozen=True)
@@ -283,24 +285,29 @@ class Database:
     # -- reading ----------------------------------------------------------------------------------
 
     def tiles(
-        self, version: str, *, level: int = 2, bbox: tuple[float, float, float, float] | None = None
+        self,
+        version: str,
+        *,
+        level: int = 2,
+        bbox: tuple[float, float, float, float] | None = None,
+        categories: list[int] | None = None,
     ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]:
-        """(xg, yg, code) of the tiles of ``version`` at ``level`` touching ``bbox``."""
+        """(xg, yg, code) of the tiles of ``version`` at ``level`` overlapping ``bbox``, optionally only
+        those whose code is in ``categories`` (bound parameters: user text never becomes SQL)."""
         vid = self.version(version).id
         table = schema.level_tables[_level(level)]
         q = select(table.c.xg, table.c.yg, table.c.c).where(table.c.version == vid)
-        if bbox is not None:
-            x0, y0, x1, y1 = bbox
-            q = q.where(
-                table.c.xg > int(np.floor(x0)) - level,
-                table.c.xg < x1,
-                table.c.yg > int(np.floor(y0)) - level,
-                table.c.yg < y1,
-            )
-        with self.engine.connect() as conn:
-            rows = conn.execute(q.order_by(table.c.xg, table.c.yg)).all()
-        arr = np.array(rows, dtype=np.int64).reshape(-1, 3)
-        return arr[:, 0], arr[:, 1], arr[:, 2].astype(np.uint8)
+        if categories is not None:
+            q = q.where(table.c.c.in_([int(c) for c in categories]))
+        if bbox is None:
+            return _columns(self._fetch(q.order_by(table.c.xg, table.c.yg)), (np.int64, np.int64, np.uint8))
+        x0, y0, x1, y1 = bbox
+        # Tile keys lie on a lattice: probing the (version, xg, yg) index once per column
+        # of tiles reads only the area, where a range on xg alone would read a whole strip.
+        xs = np.arange(np.floor(x0 / level) * level, x1, level).astype(np.int64)
+        xs = xs[xs + level > x0]
+        q = q.where(table.c.yg > int(np.floor(y0)) - level, table.c.yg < y1)
+        return _columns(self._probe(q, table.c.xg, xs.tolist()), (np.int64, np.int64, np.uint8))
 
     def points(
         self, version: str, *, level: int = 2, bbox: tuple[float, float, float, float] | None = None
@@ -309,15 +316,28 @@ class Database:
         vid = self.version(version).id
         t = schema.points
         q = select(t.c.x, t.c.y, t.c.z, t.c.n).where(t.c.version == vid)
-        if bbox is not None:
+        if bbox is None:
+            rows = self._fetch(q)
+        else:
             x0, y0, x1, y1 = bbox
-            q = q.where(t.c.x >= x0, t.c.x <= x1, t.c.y >= y0, t.c.y <= y1)
+            step = POINT_LATTICE
+            xs = np.arange(np.ceil(x0 / step) * step, x1 + step / 2, step)
+            rows = self._probe(q.where(t.c.y >= y0, t.c.y <= y1), t.c.x, xs[xs <= x1].tolist())
+        x, y, z, n = _columns(rows, (np.float64, np.float64, np.float64, np.uint8))
+        keep = (n & (1 << schema_levels().index(_level(level)))) > 0
+        return x[keep], y[keep], z[keep], n[keep]
+
+    def _fetch(self, q: Any) -> list[Any]:
         with self.engine.connect() as conn:
-            rows = conn.execute(q).all()
-        arr = np.array(rows, dtype=np.float64).reshape(-1, 4)
-        keep = (arr[:, 3].astype(np.uint8) & (1 << schema_levels().index(_level(level)))) > 0
-        arr = arr[keep]
-        return arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3].astype(np.uint8)
+            return list(conn.execute(q).tuples())
+
+    def _probe(self, q: Any, column: Any, values: list[Any]) -> list[Any]:
+        """Rows of ``q`` with ``column`` IN values, in chunks that respect bound-parameter limits."""
+        rows: list[Any] = []
+        with self.engine.connect() as conn:
+            for start in range(0, len(values), PROBE_CHUNK):
+                rows.extend(conn.execute(q.where(column.in_(values[start : start + PROBE_CHUNK]))).tuples())
+        return rows
 
     def count(self, version: str, *, table: str = "tdb") -> int:
         vid = self.version(version).id
@@ -362,6 +382,13 @@ class Area:
     y: NDArray[np.float64]
     z: NDArray[np.float64]
     n: NDArray[np.uint8]
+
+
+def _columns(rows: list[Any], dtypes: tuple[Any, ...]) -> Any:
+    if not rows:
+        return tuple(np.empty(0, d) for d in dtypes)
+    cols = list(zip(*rows))
+    return tuple(np.asarray(c, dtype=d) for c, d in zip(cols, dtypes))
 
 
 def schema_levels() -> list[int]:

@@ -55,9 +55,9 @@ def main(ctx: click.Context, debug: bool) -> None:
 
 
 def _register() -> None:
-    from tdb.cli import aoi, categories, ground, info, ingest, synth
+    from tdb.cli import aoi, categories, ground, info, ingest, query, synth
 
-    for module in (info, synth, ground, ingest, aoi, categories):
+    for module in (info, synth, ground, ingest, aoi, categories, query):
         main.add_command(module.command)
 
 

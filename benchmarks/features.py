@@ -1,0 +1,78 @@
+"""Ditch and ridge queries against synthetic truth: recall and precision by length.
+
+A true line counts as found where a reported line lies within 2 m of it; a reported
+line is right where a true line of that kind lies within 2 m.
+    python -m benchmarks.features [--seeds 1,2,3] [--size 300] [--density 4]
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import shapely
+
+import tdb
+from benchmarks.common import save
+from ingest.pipeline import ingest
+from ingest.synth import make_scene, sample
+from queries.match import find
+
+TOL = 2.0
+
+
+def score(truth: list[shapely.Geometry], found: list[shapely.Geometry]) -> tuple[float, float]:
+    t = shapely.union_all(truth) if truth else shapely.GeometryCollection()
+    f = shapely.union_all(found) if found else shapely.GeometryCollection()
+    recall = t.intersection(f.buffer(TOL)).length / t.length if t.length else float("nan")
+    precision = f.intersection(t.buffer(TOL)).length / f.length if f.length else float("nan")
+    return recall, precision
+
+
+def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str, dict[str, float]]:
+    scene = make_scene(seed=seed, size=size)
+    db = tdb.open(workdir / f"s{seed}.tdb", create=True)
+    ingest(sample(scene, density=density, seed=seed), db, version="v")
+    out = {}
+    for kind, cut in (
+        ("ditch", lambda f: f.kind == "ditch" and f.size >= 0.5 and f.width >= 1.5),
+        ("ridge", lambda f: f.kind == "ridge"),
+    ):
+        truth = [f.geometry for f in scene.features if cut(f)]
+        t0 = time.perf_counter()
+        found = [m.geometry for m in find(db, "v", kind)]
+        r, p = score(truth, found)
+        out[kind] = {
+            "recall": r,
+            "precision": p,
+            "true_m": float(sum(g.length for g in truth)),
+            "found_m": float(sum(g.length for g in found)),
+            "query_s": time.perf_counter() - t0,
+        }
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--seeds", default="1,2,3")
+    parser.add_argument("--size", type=float, default=300)
+    parser.add_argument("--density", type=float, default=4)
+    args = parser.parse_args()
+    runs = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in [int(s) for s in args.seeds.split(",")]:
+            runs[seed] = evaluate(seed, args.size, args.density, Path(tmp))
+            print(seed, runs[seed], flush=True)
+    summary = {
+        k: {m: float(np.mean([runs[s][k][m] for s in runs])) for m in ("recall", "precision")}
+        for k in ("ditch", "ridge")
+    }
+    print(summary)
+    print(save("features", {"runs": runs, "mean": summary, "size": args.size, "density": args.density}))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,167 @@
+"""The query language: a small SQL-like text compiled to library calls.
+
+    SELECT ditch FROM v2020 WHERE bbox(500000, 5500000, 500400, 5500400) AND length > 20 AT LEVEL 2
+    SELECT tiles FROM v2020 WHERE category IN (10, 16, 22)
+    SELECT changes FROM v2020 TO v2024 WHERE bbox(...) AT LEVEL 2
+
+Names may be quoted ("2020") when they are not plain words. Errors carry line and
+column with a caret. Values reach the database only as bound parameters.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+from tdb.errors import QueryError
+
+TOKEN = re.compile(
+    r"""(?P<ws>\s+)|(?P<number>-?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)"""
+    r"""|(?P<string>"[^"\n]*")|(?P<op><=|>=|!=|=|<|>)|(?P<punct>[(),])"""
+)
+KEYWORDS = {"select", "from", "to", "where", "and", "at", "level", "in", "bbox", "category"}
+ATTRIBUTES = {"length", "tiles", "depth", "height", "area", "dz"}
+LEVELS = {2, 4, 8, 16}
+
+
+@dataclass
+class Condition:
+    attribute: str
+    op: str
+    value: float
+
+
+@dataclass
+class Query:
+    what: str
+    version: str
+    to_version: str | None = None
+    bbox: tuple[float, float, float, float] | None = None
+    categories: list[int] | None = None
+    conditions: list[Condition] = field(default_factory=list)
+    level: int | None = None
+
+
+@dataclass(frozen=True)
+class Token:
+    kind: str
+    text: str
+    pos: int
+
+
+def tokenize(text: str) -> list[Token]:
+    out, pos = [], 0
+    while pos < len(text):
+        m = TOKEN.match(text, pos)
+        if not m:
+            raise QueryError(f"unexpected character {text[pos]!r}", text=text, position=pos)
+        kind = m.lastgroup or ""
+        if kind != "ws":
+            value = m.group()
+            if kind == "name" and value.lower() in KEYWORDS:
+                kind, value = "kw", value.lower()
+            elif kind == "string":
+                kind, value = "name", value[1:-1]
+            out.append(Token(kind, value, pos))
+        pos = m.end()
+    out.append(Token("end", "", len(text)))
+    return out
+
+
+class _Parser:
+    def __init__(self, text: str):
+        self.text = text
+        self.tokens = tokenize(text)
+        self.i = 0
+
+    def peek(self) -> Token:
+        return self.tokens[self.i]
+
+    def error(self, message: str, tok: Token | None = None) -> QueryError:
+        t = tok or self.peek()
+        return QueryError(
+            f"{message}, found {t.text!r}" if t.text else f"{message}, found end of query",
+            text=self.text,
+            position=t.pos,
+        )
+
+    def expect(self, kind: str, text: str | None = None) -> Token:
+        t = self.peek()
+        if t.kind != kind or (text is not None and t.text != text):
+            raise self.error(f"expected {text or kind}")
+        self.i += 1
+        return t
+
+    def accept(self, kind: str, text: str | None = None) -> Token | None:
+        t = self.peek()
+        if t.kind == kind and (text is None or t.text == text):
+            self.i += 1
+            return t
+        return None
+
+    def number(self) -> float:
+        return float(self.expect("number").text)
+
+    def parse(self) -> Query:
+        self.expect("kw", "select")
+        what = self.expect("name").text.lower()
+        self.expect("kw", "from")
+        q = Query(what, self.version())
+        if self.accept("kw", "to"):
+            q.to_version = self.version()
+        if self.accept("kw", "where"):
+            self.condition(q)
+            while self.accept("kw", "and"):
+                self.condition(q)
+        if self.accept("kw", "at"):
+            self.expect("kw", "level")
+            tok = self.peek()
+            level = self.number()
+            if level not in LEVELS:
+                raise self.error("level must be 2, 4, 8 or 16", tok)
+            q.level = int(level)
+        self.expect("end")
+        return q
+
+    def version(self) -> str:
+        t = self.peek()
+        if t.kind in ("name", "number"):
+            self.i += 1
+            return t.text
+        raise self.error("expected a version name")
+
+    def condition(self, q: Query) -> None:
+        t = self.peek()
+        if self.accept("kw", "bbox"):
+            self.expect("punct", "(")
+            vals = [self.number()]
+            for _ in range(3):
+                self.expect("punct", ",")
+                vals.append(self.number())
+            self.expect("punct", ")")
+            if not (vals[2] > vals[0] and vals[3] > vals[1]):
+                raise self.error("bbox needs x0 < x1 and y0 < y1", t)
+            q.bbox = (vals[0], vals[1], vals[2], vals[3])
+        elif self.accept("kw", "category"):
+            self.expect("kw", "in")
+            self.expect("punct", "(")
+            codes = [self.number()]
+            while self.accept("punct", ","):
+                codes.append(self.number())
+            self.expect("punct", ")")
+            if any(c != int(c) or not 0 <= c <= 255 for c in codes):
+                raise self.error("category codes are whole numbers 0..255", t)
+            q.categories = [int(c) for c in codes]
+        elif t.kind == "name" and t.text.lower() in ATTRIBUTES:
+            self.i += 1
+            op = self.expect("op").text
+            q.conditions.append(Condition(t.text.lower(), op, self.number()))
+        else:
+            raise self.error(f"expected bbox(...), category IN (...) or one of {', '.join(sorted(ATTRIBUTES))}")
+
+
+def parse(text: str) -> Query:
+    """Parse a query; raise :class:`QueryError` (with line, column and caret) on any error."""
+    if not isinstance(text, str):
+        raise QueryError("a query is text")
+    return _Parser(text).parse()
