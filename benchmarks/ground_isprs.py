@@ -55,7 +55,9 @@ def markdown(table: dict[str, dict[str, dict[str, float]]]) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--methods", default=",".join(methods()))
-    parser.add_argument("--out", type=Path)
+    parser.add_argument(
+        "--out", type=Path, default=Path(__file__).resolve().parent / "results" / "ground_isprs.json"
+    )
     args = parser.parse_args()
     table = run([m.strip() for m in args.methods.split(",")])
     print(markdown(table))

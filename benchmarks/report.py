@@ -1,0 +1,172 @@
+"""Write docs/benchmarks.md from benchmarks/results/*.json (no figure is copied by hand).
+
+python -m benchmarks.report
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from benchmarks.common import RESULTS, ROOT
+
+SOHN_SITE = RESULTS / "sohn_speed.json"
+
+
+def _load(name: str) -> dict[str, Any] | None:
+    path = RESULTS / f"{name}.json"
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def _machine(doc: dict[str, Any]) -> str:
+    m = doc.get("machine", {})
+    return (
+        f"{m.get('cpu', '?')}, Python {m.get('python', '?')}, {m.get('date', '?')}, commit {m.get('commit', '?')}"
+    )
+
+
+def ground_section(out: list[str]) -> None:
+    from benchmarks.ground_isprs import SAMPLES, markdown
+
+    table = _load("ground_isprs")
+    if table:
+        out += [
+            "## Ground filters on the ten ISPRS reference samples",
+            "",
+            "One parameter set per method, all in one run (`python -m benchmarks.ground_isprs`). "
+            "Total error % / Cohen's κ %; last row mean Type I / Type II %.",
+            "",
+        ]
+        out.append(markdown({k: v for k, v in table.items() if k != "machine"}))
+        out += [
+            "",
+            f"Samples: {', '.join(SAMPLES)}. Targets: default ≤ 4 % total, κ ≥ 88 %; Sohn–Dowman ≤ 9 %; "
+            "Elmqvist ≤ 20 %.",
+            "",
+        ]
+    speed = _load("ground_speed")
+    if speed:
+        out += [
+            "## Ground filter speed and memory on the ISPRS site clouds",
+            "",
+            f"One process per run, one core (`python -m benchmarks.ground_speed`). Machine: {_machine(speed)}.",
+            "",
+            "| method | site | points | seconds | points/s | peak RSS MiB |",
+            "|---|---|---|---|---|---|",
+        ]
+        for method, sites in speed["table"].items():
+            for site, r in sites.items():
+                if "error" in r:
+                    out.append(f"| {method} | {site} | | | failed: {r['error']} | |")
+                else:
+                    out.append(
+                        f"| {method} | {site} | {r['points']:,} | {r['seconds']:.1f} | "
+                        f"{r['points_per_s']:,.0f} | {r['peak_rss_mib']:.0f} |"
+                    )
+        out.append("")
+
+
+def categorise_section(out: list[str]) -> None:
+    doc = _load("categorise_speed")
+    if not doc:
+        return
+    s, r = doc["synthetic_non_flat"], doc.get("ttp2019_2m_tiles") or {}
+    out += [
+        "## Categorisation",
+        "",
+        f"One core (`python -m benchmarks.categorise_speed`). Machine: {_machine(doc)}.",
+        "",
+        "| tiles | count | tiles/s | same code as a full L1 search |",
+        "|---|---|---|---|",
+        f"| synthetic, none flat | {s['tiles']:,} | {s['tiles_per_s']:,.0f} | "
+        f"{100 * s['agree_with_full_l1']:.2f} % |",
+    ]
+    if r:
+        out.append(
+            f"| TTP 2019, 2 m tiles ({100 * r['flat_share']:.0f} % flat) | {r['tiles']:,} | "
+            f"{r['tiles_per_s']:,.0f} | {100 * r['agree_with_full_l1']:.2f} % |"
+        )
+    out += ["", "Target ≥ 1 M tiles/s on one core.", ""]
+
+
+def reduction_section(out: list[str]) -> None:
+    doc = _load("reduction")
+    if not doc:
+        return
+    out += [
+        "## Reduction of the dense 0.5 m model (2 m level)",
+        "",
+        "Default ground filter, kept points = tile corners + feature nodes. pydelatin gets the same dense model "
+        "and the same number of points; both rebuilt surfaces are compared with the dense model at every valid "
+        f"post (`python -m benchmarks.reduction`). Machine: {_machine(doc)}.",
+        "",
+        "| file | dense posts | kept | removed % | tdb RMSE / max (m) | pydelatin RMSE / max (m) "
+        "| flat threshold (m) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for name, r in doc["files"].items():
+        out.append(
+            f"| {name} | {r['dense_posts']:,} | {r['kept']:,} | {r['reduction_pct']:.1f} | "
+            f"{r['tdb_rmse_m']:.3f} / {r['tdb_max_m']:.2f} | "
+            f"{r['delatin_rmse_m']:.3f} / {r['delatin_max_m']:.2f} | "
+            f"{r['flat_threshold_m']:.2f} |"
+        )
+    out += ["", "Target: ≥ 90 % removed with RMSE ≤ 0.10 m per file.", ""]
+
+
+def database_section(out: list[str]) -> None:
+    doc = _load("db_speed")
+    if not doc:
+        return
+    out += [
+        "## Database",
+        "",
+        f"`python -m benchmarks.db_speed`. Machine: {_machine(doc)}.",
+        "",
+        f"- Writes: {doc['rows']:,} rows in {doc['write_s']:.0f} s = **{doc['rows_per_s']:,.0f} rows/s** "
+        f"(target ≥ 500 k).",
+        f"- Area query, 1 km² at level 2 ({doc['aoi_tiles']:,} tiles + {doc['aoi_points']:,} points) on a "
+        f"{doc['area_km2']:.0f} km² database ({doc['file_mib']:.0f} MiB): median "
+        f"**{doc['aoi_1km2_ms_median']:.0f} ms**, max {doc['aoi_1km2_ms_max']:.0f} ms (target ≤ 50 ms).",
+        "",
+    ]
+
+
+def features_section(out: list[str]) -> None:
+    doc = _load("features")
+    if not doc:
+        return
+    out += [
+        "## Feature queries on synthetic scenes",
+        "",
+        f"`python -m benchmarks.features` (size {doc['size']} m, {doc['density']} pulses/m²). "
+        f"Machine: {_machine(doc)}.",
+        "",
+        "| seed | kind | recall | precision | query s |",
+        "|---|---|---|---|---|",
+    ]
+    for seed, kinds in doc["runs"].items():
+        for kind, r in kinds.items():
+            out.append(f"| {seed} | {kind} | {r['recall']:.2f} | {r['precision']:.2f} | {r['query_s']:.2f} |")
+    out += ["", "Target recall and precision ≥ 0.9 by length.", ""]
+
+
+def main() -> None:
+    out = [
+        "# Benchmarks",
+        "",
+        "Generated by `python -m benchmarks.report` from `benchmarks/results/*.json`; "
+        "each section names its machine, date and commit. Peers are installed with `make bench`.",
+        "",
+    ]
+    for section in (ground_section, categorise_section, reduction_section, database_section, features_section):
+        section(out)
+    notes = RESULTS / "notes.md"
+    if notes.exists():
+        out += ["## Notes", "", notes.read_text().strip(), ""]
+    (ROOT / "docs" / "benchmarks.md").write_text("\n".join(out))
+    print(ROOT / "docs" / "benchmarks.md")
+
+
+if __name__ == "__main__":
+    main()
