@@ -13,7 +13,7 @@ import numpy as np
 
 from benchmarks.common import DATA, save
 from ingest.ground.grids import fill_nearest
-from ingest.ground.tin import barycentric, locate, triangulate
+from ingest.ground.tin import surface_height, triangulate
 from ingest.pipeline import survey
 from ingest.readers import read
 
@@ -43,11 +43,7 @@ def delatin_rmse(dtm: np.ndarray, points: int) -> tuple[float, float]:
     v = mesh.vertices  # (col, rows - 1 - row, z): pydelatin counts rows from the bottom
     tri = triangulate(v[:, :2])
     rr, cc = np.nonzero(valid)
-    q = np.column_stack([cc, rows - 1 - rr]).astype(float)
-    s = locate(tri, q)
-    z = np.full(len(q), np.nan)
-    ok = s >= 0
-    z[ok] = (barycentric(tri, s[ok], q[ok]) * v[tri.simplices[s[ok]], 2]).sum(axis=1)
+    z, _ = surface_height(tri, v[:, 2], np.column_stack([cc, rows - 1 - rr]).astype(float))
     err = z - dtm[valid]
     good = ~np.isnan(err)
     return float(np.sqrt(np.mean(err[good] ** 2))), float(np.abs(err[good]).max())

@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.ground.grids import MAX_CELLS
-from ingest.ground.tin import barycentric, locate, triangulate
+from ingest.ground.tin import surface_height, triangulate
 from tdb.errors import InputError
 from tdb.raster import Raster
 
@@ -63,8 +63,9 @@ def dense_model(
     long_facet = _long_facets(tri, xyz, max_edge)
     for r0 in range(0, rows, 512):  # bands bound the memory of point location
         gx, gy = np.meshgrid(xs, ys[r0 : r0 + 512])
-        q = np.column_stack([gx.ravel(), gy.ravel()])
-        data[r0 : r0 + 512] = _interpolate(tri, xyz[:, 2], q, long_facet).reshape(gx.shape)
+        z, simplex = surface_height(tri, xyz[:, 2], np.column_stack([gx.ravel(), gy.ravel()]))
+        z[(simplex >= 0) & long_facet[np.maximum(simplex, 0)]] = np.nan  # a guess across a big gap
+        data[r0 : r0 + 512] = z.reshape(gx.shape)
     return raster
 
 
@@ -74,15 +75,3 @@ def _long_facets(tri: Any, xyz: NDArray[np.float64], max_edge: float | None) -> 
     v = xyz[tri.simplices, :2]
     edges = np.stack([v[:, 1] - v[:, 0], v[:, 2] - v[:, 1], v[:, 0] - v[:, 2]], axis=1)
     return np.linalg.norm(edges, axis=2).max(axis=1) > max_edge
-
-
-def _interpolate(
-    tri: Any, z: NDArray[np.float64], q: NDArray[np.float64], skip: NDArray[np.bool_]
-) -> NDArray[np.float64]:
-    simplex = locate(tri, q)
-    out = np.full(len(q), np.nan)
-    ok = simplex >= 0
-    ok[ok] = ~skip[simplex[ok]]
-    lam = barycentric(tri, simplex[ok], q[ok])
-    out[ok] = (lam * z[tri.simplices[simplex[ok]]]).sum(axis=1)
-    return out

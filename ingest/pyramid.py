@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.categorise import categorise
-from ingest.ground.tin import barycentric, locate, triangulate
+from ingest.ground.tin import surface_height, triangulate
 from ingest.reduce import kept_nodes, level_bit
 from ingest.tiles import LEVELS, node_grid
 from tdb.categories import NO_DATA
@@ -92,7 +92,7 @@ def reduction_stats(dtm: Raster, model: TerrainModel, *, level_bit_mask: int = 1
         xs, ys = dtm.centres()
         gx, gy = np.meshgrid(xs, ys)
         q = np.column_stack([gx[valid], gy[valid]])
-        rebuilt = _tin_at(np.column_stack([model.x[keep], model.y[keep], model.z[keep]]), q)
+        rebuilt, _ = surface_height(triangulate(np.column_stack([model.x[keep], model.y[keep]])), model.z[keep], q)
         err = rebuilt - dtm.data[valid]
         ok = ~np.isnan(err)
         stats["rmse_m"] = round(float(np.sqrt(np.mean(err[ok] ** 2))), 4)
@@ -101,13 +101,3 @@ def reduction_stats(dtm: Raster, model: TerrainModel, *, level_bit_mask: int = 1
         stats[f"tiles_{level}m"] = len(tiles.code)
         stats[f"no_data_{level}m"] = int((tiles.code == NO_DATA).sum())
     return stats
-
-
-def _tin_at(xyz: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
-    tri = triangulate(xyz[:, :2])
-    s = locate(tri, q)
-    out = np.full(len(q), np.nan)
-    ok = s >= 0
-    lam = barycentric(tri, s[ok], q[ok])
-    out[ok] = (lam * xyz[tri.simplices[s[ok]], 2]).sum(axis=1)
-    return out

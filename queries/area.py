@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ingest.ground.tin import barycentric, locate, triangulate
+from ingest.ground.tin import surface_height, triangulate
 from tdb.database import Area
 from tdb.errors import InputError, TdbIOError
 from tdb.raster import Raster
@@ -26,11 +26,7 @@ def area_surface(area: Area, *, cell: float | None = None, crs: Any = None) -> R
     xs = np.arange(np.ceil(x0 / cell) * cell, x1 + 1e-9, cell)
     ys = np.arange(np.floor(y1 / cell) * cell, y0 - 1e-9, -cell)
     gx, gy = np.meshgrid(xs, ys)
-    q = np.column_stack([gx.ravel(), gy.ravel()])
-    s = locate(tri, q)
-    z = np.full(len(q), np.nan)
-    ok = s >= 0
-    z[ok] = (barycentric(tri, s[ok], q[ok]) * xyz[tri.simplices[s[ok]], 2]).sum(axis=1)
+    z, _ = surface_height(tri, xyz[:, 2], np.column_stack([gx.ravel(), gy.ravel()]))
     return Raster(z.reshape(gx.shape), float(xs[0] - cell / 2), float(ys[0] + cell / 2), cell, crs)
 
 

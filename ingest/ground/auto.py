@@ -21,7 +21,7 @@ from scipy.spatial import cKDTree
 
 from ingest.ground.grids import Grid, fill_nearest, lowest_per_cell
 from ingest.ground.outliers import low_outliers
-from ingest.ground.tin import barycentric, locate, triangulate
+from ingest.ground.tin import surface_height, triangulate
 
 
 @dataclass(frozen=True)
@@ -65,12 +65,8 @@ def progressive_opening(
 
 def tin_heights(ground_xyz: NDArray[np.float64], xy: NDArray[np.float64]) -> NDArray[np.float64]:
     """Height of the TIN of ``ground_xyz`` at ``xy``; outside its hull, the nearest ground point's."""
-    tri = triangulate(ground_xyz[:, :2])
-    simplex = locate(tri, xy)
+    out, simplex = surface_height(triangulate(ground_xyz[:, :2]), ground_xyz[:, 2], xy)
     inside = simplex >= 0
-    out = np.empty(len(xy))
-    lam = barycentric(tri, simplex[inside], xy[inside])
-    out[inside] = (lam * ground_xyz[tri.simplices[simplex[inside]], 2]).sum(axis=1)
     if (~inside).any():
         _, nearest = cKDTree(ground_xyz[:, :2]).query(xy[~inside])
         out[~inside] = ground_xyz[nearest, 2]
