@@ -1,10 +1,9 @@
 """Feature filters: objects as patterns over tile categories (the paper's Match step).
 
 A filter is data (JSON validated by ``schemas/filter.schema.json``): the tile
-features it accepts, whether it is linear, its default level. Linear filters
-join two neighbouring tiles only where their break lines meet at the shared
-edge middle or corner, so a ditch is a chain of valleys whose lines connect;
-other filters join tiles that touch.
+features it accepts, how tiles join (``lines``: only where their break lines
+meet at the shared edge middle or corner; ``touch``: where the tiles touch),
+whether the match is a line along the break lines or a polygon, its default level.
 """
 
 from __future__ import annotations
@@ -35,6 +34,7 @@ class Filter:
     min_tiles: int = 1
     measure: str = "height"
     description: str = ""
+    join: str = "lines"
 
 
 def _schema() -> dict[str, Any]:
@@ -60,6 +60,7 @@ def parse_filter(doc: dict[str, Any]) -> Filter:
         where = "/".join(map(str, exc.absolute_path)) or "filter"
         raise FilterError(f"invalid filter ({where}): {exc.message}") from None
     codes = frozenset(FEATURE_NAMES.index(f) for f in doc["features"])
+    join = doc.get("join", "lines" if doc["linear"] else "touch")
     return Filter(
         doc["name"],
         codes,
@@ -68,6 +69,7 @@ def parse_filter(doc: dict[str, Any]) -> Filter:
         doc.get("min_tiles", 1),
         doc.get("measure", "height"),
         doc.get("description", ""),
+        join,
     )
 
 
@@ -133,7 +135,7 @@ def components(
             j = index.get((int(x) + dx * level, int(y) + dy * level))
             if j is None:
                 continue
-            if flt.linear:
+            if flt.join == "lines":
                 a, b = ends[int(code[sel[k]])], ends[int(code[sel[j]])]
                 if not any(p in a and q in b for p, q in pairs):
                     continue

@@ -111,7 +111,7 @@ def test_invalid_filters(doc):
 
 
 def test_linear_chain_needs_connected_break_lines():
-    flt = builtin_filters()["ditch"]
+    flt = parse_filter({"name": "chain", "features": ["valley"], "linear": True, "join": "lines"})
     cats = all_categories()
     north = next(c.code for c in cats if c.feature == 2 and c.orientation == (1, 7))  # valley S–N
     east = next(c.code for c in cats if c.feature == 2 and c.orientation == (3, 5))  # valley W–E
@@ -120,7 +120,9 @@ def test_linear_chain_needs_connected_break_lines():
     # Three S–N valleys stacked: one chain; a W–E valley beside the top one does not join it.
     code = np.array([north, north, north, east], np.uint8)
     groups = components(xg, yg, code, flt, 2)
-    assert [sorted(g.tolist()) for g in groups] == [[0, 1, 2]]
+    assert [sorted(g.tolist()) for g in groups] == [[0, 1, 2], [3]]
+    touching = parse_filter({"name": "blob", "features": ["valley"], "linear": True, "join": "touch"})
+    assert [sorted(g.tolist()) for g in components(xg, yg, code, touching, 2)] == [[0, 1, 2, 3]]
 
 
 def test_queries_on_a_database(tmp_path):
