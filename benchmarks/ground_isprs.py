@@ -6,12 +6,12 @@ python -m benchmarks.ground_isprs [--methods "tdb auto,pysmrf"] [--out docs/grou
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import save
 from benchmarks.ground_methods import methods
 from ingest.ground.evaluate import accuracy
 from ingest.readers import read
@@ -61,8 +61,7 @@ def main() -> None:
     args = parser.parse_args()
     table = run([m.strip() for m in args.methods.split(",")])
     print(markdown(table))
-    if args.out:
-        args.out.write_text(json.dumps(table, indent=1))
+    print(save("ground_isprs", table))
 
 
 if __name__ == "__main__":
