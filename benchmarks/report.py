@@ -34,7 +34,7 @@ def ground_section(out: list[str]) -> None:
             "## Ground filters on the ten ISPRS reference samples",
             "",
             "One parameter set per method, all in one run (`python -m benchmarks.ground_isprs`). "
-            "Total error % / Cohen's κ %; last row mean Type I / Type II %.",
+            f"Total error % / Cohen's κ %; last row mean Type I / Type II %. Machine: {_machine(table)}.",
             "",
         ]
         out.append(markdown({k: v for k, v in table.items() if k != "machine"}))
