@@ -32,7 +32,10 @@ def run(db: Database, text: str) -> list[dict[str, Any]]:
     if q.what == "changes":
         if q.to_version is None:
             raise QueryError("SELECT changes needs FROM <version> TO <version>", text=text, position=0)
-        raise QueryError("SELECT changes: change detection is not implemented yet")
+        from queries.changes import detect
+
+        found = detect(db, q.version, q.to_version, level=q.level or 2, bbox=q.bbox)
+        return [f for f in found if _keep(f["properties"], q)]
     if q.to_version is not None:
         raise QueryError(
             "TO <version> belongs to SELECT changes", text=text, position=text.lower().find(" to ") + 1

@@ -72,6 +72,22 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
         x0, y0 = scene.bounds[:2]
         area = db.aoi((x0 + 25, y0 + 25, x0 + 225, y0 + 225), level=2, version="2020")
         surface = area_surface(area, crs=db.crs("2020"))
+        from queries.changes import detect
+        from queries.run import feature_collection, run
+        from tdb.pictures import change_map
+
+        t2 = step("queries: ditches, and what changed from 2020 to 2024 (tdb query, tdb diff)")
+        ditches = run(db, 'SELECT ditch FROM "2020" WHERE length > 10 AND depth > 0.3')
+        write_json(out / "ditches.geojson", feature_collection(ditches, db.crs("2020")))
+        found = detect(db, "2020", "2024")
+        write_json(out / "diff.geojson", feature_collection(found, db.crs("2024")))
+        change_map(out / "diff.png", found, title="2020 → 2024, 2 m tiles")
+        kinds = sorted({f["properties"]["kind"] for f in found})
+        done(
+            t2,
+            f"{len(ditches)} ditch lines → ditches.geojson; {len(found)} changed regions ({', '.join(kinds)}) "
+            f"→ diff.geojson, diff.png; true changes are in changes.geojson",
+        )
     write_ply(out / "aoi.ply", area)
     write_geotiff(out / "aoi.tif", surface)
     area_picture(out / "aoi.png", area, surface)

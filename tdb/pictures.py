@@ -100,3 +100,23 @@ def area_picture(path: str | os.PathLike[str], area: Any, surface: Raster) -> No
     ax.set_title(f"{area.version}: {area.level} m tiles (red ridge, blue valley, teal/orange steps)")
     fig.savefig(path, dpi=100, bbox_inches="tight")
     plt.close(fig)
+
+
+def change_map(path: str | os.PathLike[str], features: list[dict[str, Any]], *, title: str) -> None:
+    """Changed regions coloured by the sign of the height change, labelled with their kind."""
+    plt = _pyplot()
+    import shapely
+
+    fig, ax = plt.subplots(figsize=(9, 9))
+    for f in features:
+        geom = shapely.geometry.shape(f["geometry"])
+        colour = (0.8, 0.2, 0.1) if f["properties"]["dz"] < 0 else (0.1, 0.35, 0.8)
+        for poly in getattr(geom, "geoms", [geom]):
+            x, y = poly.exterior.xy
+            ax.fill(x, y, color=colour, alpha=0.6, lw=0)
+        c = geom.representative_point()
+        ax.annotate(f["properties"]["kind"], (c.x, c.y), fontsize=6)
+    ax.set_aspect("equal")
+    ax.set_title(f"{title} (red lowered, blue raised)")
+    fig.savefig(path, dpi=100, bbox_inches="tight")
+    plt.close(fig)

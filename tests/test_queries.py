@@ -139,8 +139,7 @@ def test_queries_on_a_database(tmp_path):
     assert len(box) == 25
     for f in run(db, "SELECT ditch FROM v1 WHERE length > 5"):
         assert f["geometry"]["type"] in ("LineString", "MultiLineString") and f["properties"]["length"] > 5
-    with pytest.raises(QueryError):
-        run(db, "SELECT changes FROM v1 TO v1")
+    assert run(db, "SELECT changes FROM v1 TO v1") == []  # a survey compared with itself
     with pytest.raises(tdb.TdbError, match="no version"):
         run(db, "SELECT ditch FROM nope")
     json.dumps(run(db, "SELECT mound FROM v1"))

@@ -55,9 +55,9 @@ def main(ctx: click.Context, debug: bool) -> None:
 
 
 def _register() -> None:
-    from tdb.cli import aoi, categories, ground, info, ingest, query, synth
+    from tdb.cli import aoi, categories, diff, ground, info, ingest, query, synth
 
-    for module in (info, synth, ground, ingest, aoi, categories, query):
+    for module in (info, synth, ground, ingest, aoi, categories, query, diff):
         main.add_command(module.command)
 
 
