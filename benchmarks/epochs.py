@@ -17,7 +17,7 @@ import tdb
 from benchmarks.common import DATA, save
 from ingest.pipeline import ingest, survey
 from ingest.readers import read
-from queries.changes import detect
+from queries.changes import detect, tile_nodes
 
 
 def main() -> None:
@@ -31,9 +31,7 @@ def main() -> None:
         diff_s = time.perf_counter() - t0
         dense = {name: survey(cloud).dtm for name, cloud in clouds.items()}
         xg, yg, _ = db.tiles("2015", level=2)
-    offs = np.array([0.0, 1.0, 2.0])
-    qx = (xg[:, None, None] + offs[None, None, :] + 0 * offs[None, :, None]).ravel()
-    qy = (yg[:, None, None] + offs[None, :, None] + 0 * offs[None, None, :]).ravel()
+    qx, qy = tile_nodes(xg, yg, 2)
     dz = (dense["2019"].sample(qx, qy) - dense["2015"].sample(qx, qy)).reshape(len(xg), 9)
     valid = ~np.isnan(dz).any(axis=1)
     stable = valid & (np.abs(dz) < 0.1).all(axis=1)

@@ -41,6 +41,12 @@ def level_of_detection(db: Database, a: str, b: str) -> float:
     return max(MIN_LOD, 1.96 * float(np.sqrt(np.sum(np.square(terms)))))
 
 
+def tile_nodes(xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> tuple[NDArray[np.float64], ...]:
+    """x and y of each tile's 3 × 3 nodes (corners, edge middles, centre), tile by tile."""
+    u, v = np.meshgrid([0.0, 0.5, 1.0], [0.0, 0.5, 1.0])
+    return ((xg[:, None] + level * u.ravel()[None, :]).ravel(), (yg[:, None] + level * v.ravel()[None, :]).ravel())
+
+
 def _surface(
     db: Database,
     version: str,
@@ -73,10 +79,7 @@ def detect(
     if len(ia) == 0:
         return []
     xg, yg, c1, c2 = xa[ia], ya[ia], ca[ia], cb[ib]
-    # Heights at each tile's 3 × 3 nodes (corners, edge middles, centre) in both versions.
-    offs = np.array([0.0, 0.5, 1.0]) * level
-    qx = (xg[:, None, None] + offs[None, None, :] + 0 * offs[None, :, None]).ravel()
-    qy = (yg[:, None, None] + offs[None, :, None] + 0 * offs[None, None, :]).ravel()
+    qx, qy = tile_nodes(xg, yg, level)
     za = _surface(db, before, level, bbox, qx, qy).reshape(len(xg), 9)
     zb = _surface(db, after, level, bbox, qx, qy).reshape(len(xg), 9)
     dz = zb - za
