@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -63,8 +64,6 @@ def read(
     else:
         cloud = _read_text(p, labels=parse(LabelScheme, labels))
     if crs is not None:
-        from dataclasses import replace
-
         cloud = replace(cloud, crs=as_crs(crs))
     if validate:
         check_finite(cloud)

@@ -69,7 +69,7 @@ def description_length(
     )
 
 
-def initial_corners(xyz: NDArray[np.float64], tri_all: Delaunay | None = None) -> NDArray[np.float64]:
+def initial_corners(xyz: NDArray[np.float64]) -> NDArray[np.float64]:
     """§4.1: rectangle corners just outside the data, z = mean of their TIN neighbours."""
     lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
     pad = 0.01 * (hi - lo).max() + 1.0

@@ -15,7 +15,7 @@ from shapely.geometry import LineString, Polygon
 from shapely.geometry.base import BaseGeometry
 
 from ingest.synth.geometry import wander
-from ingest.synth.scene import Building, Feature, Scene, _Placer
+from ingest.synth.scene import Building, Feature, Scene, Placer
 
 
 @dataclass(frozen=True)
@@ -33,7 +33,7 @@ def apply_changes(scene: Scene, *, seed: int = 0) -> tuple[Scene, list[Change]]:
     already in the scene.
     """
     rng = np.random.default_rng([seed, 7919])
-    placer = _Placer(scene.bounds, rng)
+    placer = Placer(scene.bounds, rng)
     placer.taken = [f.footprint() for f in scene.features] + [b.footprint for b in scene.buildings]
     placer.taken += [shapely.Point(t.x, t.y).buffer(t.crown_radius) for t in scene.trees]
     features = list(scene.features)
@@ -72,7 +72,7 @@ def apply_changes(scene: Scene, *, seed: int = 0) -> tuple[Scene, list[Change]]:
 
 
 def _place_line(
-    placer: _Placer, kind: str, size: float, width: float, length: float, *, ident: int
+    placer: Placer, kind: str, size: float, width: float, length: float, *, ident: int
 ) -> Feature | None:
     for _ in range(200):
         coords = wander(
@@ -92,7 +92,7 @@ def _place_line(
     return None
 
 
-def _place_building(placer: _Placer, *, ident: int) -> Building | None:
+def _place_building(placer: Placer, *, ident: int) -> Building | None:
     for _ in range(200):
         cx, cy = placer.point(margin=20.0)
         box = Polygon.from_bounds(cx - 7, cy - 5, cx + 7, cy + 5)

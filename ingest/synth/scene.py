@@ -102,7 +102,7 @@ MIN_SIZE, MAX_SIZE = 100.0, 20_000.0
 GAP = 5.0  # plan clearance between features (m)
 
 
-class _Placer:
+class Placer:
     """Rejection sampling of shapes that must not overlap what is already placed."""
 
     def __init__(self, bounds: tuple[float, float, float, float], rng: np.random.Generator):
@@ -148,7 +148,7 @@ def make_scene(
     rng = np.random.default_rng(seed)
     bounds = (origin[0], origin[1], origin[0] + size, origin[1] + size)
     relief = _make_relief(bounds, rng)
-    placer = _Placer(bounds, rng)
+    placer = Placer(bounds, rng)
     blocks = max(1.0, (size / 150.0) ** 2)  # one set of features per ~150 m block
     features: list[Feature] = []
     counts = {
@@ -206,9 +206,7 @@ LINE_SPECS = {
 }
 
 
-def _add_lines(
-    features: list[Feature], placer: _Placer, kind: str, *, count: int, join_share: float = 0.0
-) -> None:
+def _add_lines(features: list[Feature], placer: Placer, kind: str, *, count: int, join_share: float = 0.0) -> None:
     rng = placer.rng
     (s0, s1), (w0, w1), (l0, l1), profiles = LINE_SPECS[kind]
     size = placer.bounds[2] - placer.bounds[0]
@@ -263,7 +261,7 @@ def _add_lines(
         placer.taken.append(feature.footprint())
 
 
-def _add_embankments(features: list[Feature], placer: _Placer, *, count: int) -> None:
+def _add_embankments(features: list[Feature], placer: Placer, *, count: int) -> None:
     rng = placer.rng
     size = placer.bounds[2] - placer.bounds[0]
     for _ in range(count * 30):
@@ -290,7 +288,7 @@ def _add_embankments(features: list[Feature], placer: _Placer, *, count: int) ->
             placer.taken.append(feature.footprint())
 
 
-def _add_points(features: list[Feature], placer: _Placer, kind: str, *, count: int) -> None:
+def _add_points(features: list[Feature], placer: Placer, kind: str, *, count: int) -> None:
     rng = placer.rng
     added = 0
     for _ in range(count * 30):
@@ -307,7 +305,7 @@ def _add_points(features: list[Feature], placer: _Placer, kind: str, *, count: i
             added += 1
 
 
-def _add_buildings(placer: _Placer, *, count: int, first_ident: int = 0) -> list[Building]:
+def _add_buildings(placer: Placer, *, count: int, first_ident: int = 0) -> list[Building]:
     rng = placer.rng
     out: list[Building] = []
     for _ in range(count * 30):
@@ -336,7 +334,7 @@ def _add_buildings(placer: _Placer, *, count: int, first_ident: int = 0) -> list
     return out
 
 
-def _add_trees(placer: _Placer, *, stands: int) -> list[Tree]:
+def _add_trees(placer: Placer, *, stands: int) -> list[Tree]:
     rng = placer.rng
     trees: list[Tree] = []
     for _ in range(stands):
