@@ -15,7 +15,7 @@ from shapely.geometry import LineString, Polygon
 from shapely.geometry.base import BaseGeometry
 
 from ingest.synth.geometry import wander
-from ingest.synth.scene import Building, Feature, Scene, Placer
+from ingest.synth.scene import Building, Feature, Placer, Scene
 
 
 @dataclass(frozen=True)
