@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from benchmarks.common import DATA, save
-from ingest.ground.grids import fill_nearest
+from ingest.ground.fill import fill_nearest
 from ingest.ground.tin import surface_height, triangulate
 from ingest.pipeline import survey
 from ingest.readers import read

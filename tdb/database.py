@@ -329,14 +329,14 @@ class Database:
 
     def _fetch(self, q: Any) -> list[Any]:
         with self.engine.connect() as conn:
-            return list(conn.execute(q).tuples())
+            return list(conn.execute(q))
 
     def _probe(self, q: Any, column: Any, values: list[Any]) -> list[Any]:
         """Rows of ``q`` with ``column`` IN values, in chunks that respect bound-parameter limits."""
         rows: list[Any] = []
         with self.engine.connect() as conn:
             for start in range(0, len(values), PROBE_CHUNK):
-                rows.extend(conn.execute(q.where(column.in_(values[start : start + PROBE_CHUNK]))).tuples())
+                rows.extend(conn.execute(q.where(column.in_(values[start : start + PROBE_CHUNK]))))
         return rows
 
     def count(self, version: str, *, table: str = "tdb") -> int:

@@ -1,27 +1,33 @@
-"""The default ground filter: morphological seeds refined on a TIN.
+"""The default ground filter: morphological seeds refined on a gap-filled surface.
 
 1. Low outliers are removed (:mod:`ingest.ground.outliers`).
 2. Seeds: the lowest point per cell, opened with growing square windows; a cell
    is an object where the opening removes more than the slope allows for that
    window (the progressive morphological idea of Zhang et al. and SMRF).
-3. Refinement: the seed ground is triangulated and every point is judged by its
-   height above that TIN against a threshold that grows with the local slope;
-   the ground so found is triangulated again and the test repeated, which lets
+3. Refinement: the seed ground becomes a surface posted at the cell corners
+   (:func:`ingest.ground.grids.corner_heights`, holes bridged by straight lines,
+   :func:`ingest.ground.fill.fill_linear`) and every point is judged by its height
+   above that surface against a threshold that grows with the local slope; the
+   ground so found makes the next surface and the test is repeated, which lets
    ground creep up breaks of slope that the square windows cut off.
+
+The surface used to be a TIN of the ground points. On the ISPRS samples the
+gap-filled corner grid is as accurate (3.95 % against 4.02 % mean total error)
+and needs no triangulation, which took three quarters of the time.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
-from scipy.spatial import cKDTree
 
-from ingest.ground.grids import Grid, fill_nearest, lowest_per_cell
+from ingest.ground.fill import fill_linear, fill_nearest
+from ingest.ground.grids import CellSort, Grid, corner_heights
 from ingest.ground.outliers import low_outliers
-from ingest.ground.tin import surface_height, triangulate
 
 
 @dataclass(frozen=True)
@@ -32,11 +38,11 @@ class AutoParams:
     threshold: float = 0.4  # height above the ground TIN still ground on flat land (m)
     slope_scale: float = 1.25  # extra threshold per unit of local TIN slope
     below: float = 1.0  # points this far below the TIN are not ground (m)
-    refinements: int = 4
+    refinements: int = 8  # at most; fewer once a pass changes under ``settled`` of the labels
+    settled: float = 2e-4
     pit_window: float = 8.0  # widest low-outlier cluster (m, radius)
     pit_slope: float = 3.0  # pit walls steeper than this, beyond pit_depth, are not terrain
     pit_depth: float = 2.0
-    thin: bool = True
 
 
 def progressive_opening(
@@ -63,24 +69,15 @@ def progressive_opening(
     return objects & ~np.isnan(zmin)
 
 
-def tin_heights(ground_xyz: NDArray[np.float64], xy: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Height of the TIN of ``ground_xyz`` at ``xy``; outside its hull, the nearest ground point's."""
-    out, simplex = surface_height(triangulate(ground_xyz[:, :2]), ground_xyz[:, 2], xy)
-    inside = simplex >= 0
-    if (~inside).any():
-        _, nearest = cKDTree(ground_xyz[:, :2]).query(xy[~inside])
-        out[~inside] = ground_xyz[nearest, 2]
-    return out
-
-
-def surface_slope(grid: Grid, ground_xyz: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Slope (rise/run) raster of the ground TIN sampled at cell centres, lightly smoothed."""
-    xs, ys = grid.centres()
-    gx, gy = np.meshgrid(xs, ys)
-    dem = tin_heights(ground_xyz, np.column_stack([gx.ravel(), gy.ravel()])).reshape(grid.shape)
-    dem = ndimage.uniform_filter(dem, size=3, mode="nearest")
-    dy, dx = np.gradient(dem, grid.cell)
-    return np.hypot(dx, dy)
+def ground_surface(
+    grid: Grid, xyz: NDArray[np.float64], lowest: NDArray[np.intp]
+) -> tuple[NDArray[np.floating[Any]], NDArray[np.floating[Any]]]:
+    """Corner-posted ground surface through the points ``lowest`` (one per cell) with its holes
+    filled, and its slope (rise/run), lightly smoothed so one noisy point does not raise the
+    threshold around it."""
+    surface = fill_linear(corner_heights(grid, xyz, lowest))
+    dy, dx = np.gradient(ndimage.uniform_filter(surface, size=3, mode="nearest"), grid.cell)
+    return surface, np.hypot(dx, dy)
 
 
 def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -> NDArray[np.bool_]:
@@ -97,20 +94,25 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
     keep = np.flatnonzero(~low_outliers(xyz))
     pts = xyz[keep]
     grid = Grid.covering(pts[:, :2], p.cell)
-    zmin, idx = lowest_per_cell(grid, pts)
+    cells = CellSort.of(grid, pts)
+    idx = cells.lowest()
+    zmin = np.where(idx >= 0, pts[idx, 2], np.nan)
     objects = progressive_opening(zmin, cell=p.cell, max_window=p.max_window, slope=p.slope)
     # Clusters of low outliers too big for the neighbour test: deep narrow pits,
     # found by the same opening of the upside-down surface.
     pits = progressive_opening(-zmin, cell=p.cell, max_window=p.pit_window, slope=p.pit_slope, offset=p.pit_depth)
-    seeds = idx[(idx >= 0) & ~objects & ~pits]
-    current = pts[seeds]
+    current = np.where(~objects & ~pits, idx, -1)
+    at_points = grid.corner_sampler(pts[:, :2])
+    is_ground = np.zeros(len(pts), bool)
     for _ in range(p.refinements + 1):
-        h = pts[:, 2] - tin_heights(current, pts[:, :2])
-        slope = grid.sample(surface_slope(grid, current), pts[:, :2])
-        is_ground = (h <= p.threshold + p.slope_scale * slope) & (h >= -p.below)
+        surface, slope_map = ground_surface(grid, pts, current)
+        h = pts[:, 2] - at_points(surface)
+        before = is_ground
+        is_ground = (h <= p.threshold + p.slope_scale * at_points(slope_map)) & (h >= -p.below)
+        if np.count_nonzero(before != is_ground) < p.settled * len(pts):
+            break
         # The next surface rests on the lowest ground point per cell: noise and
         # low clutter among the accepted points would otherwise lift it.
-        _, low = lowest_per_cell(grid, pts[is_ground])
-        current = pts[is_ground][low[low >= 0]] if p.thin else pts[is_ground]
+        current = cells.lowest(is_ground)
     ground[keep[is_ground]] = True
     return ground

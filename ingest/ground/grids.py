@@ -1,8 +1,9 @@
-"""Rasterising points: cell indices, lowest point per cell, filling holes."""
+"""Rasterising points: cell indices, lowest point per cell, heights at cell corners."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -52,26 +53,102 @@ class Grid:
         fy = np.clip((xy[:, 1] - self.y0) / self.cell - 0.5, 0, self.shape[0] - 1)
         return ndimage.map_coordinates(raster, [fy, fx], order=1, mode="nearest")
 
+    def corner_sampler(self, xy: NDArray[np.float64]) -> CornerSampler:
+        """Bilinear interpolation at fixed points of rasters posted at the cell corners (rows + 1, cols + 1)."""
+        fx = np.clip((xy[:, 0] - self.x0) / self.cell, 0, self.shape[1])
+        fy = np.clip((xy[:, 1] - self.y0) / self.cell, 0, self.shape[0])
+        j = np.minimum(fx.astype(np.intp), self.shape[1] - 1)
+        i = np.minimum(fy.astype(np.intp), self.shape[0] - 1)
+        return CornerSampler(i * (self.shape[1] + 1) + j, self.shape[1] + 1, fx - j, fy - i)
+
+
+@dataclass(frozen=True)
+class CornerSampler:
+    """Precomputed bilinear weights: the points stay, the rasters change (one per refinement)."""
+
+    base: NDArray[np.intp]  # flat index of each point's lower-left corner
+    stride: int
+    tx: NDArray[np.float64]
+    ty: NDArray[np.float64]
+
+    def __call__(self, raster: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
+        r = raster.ravel()
+        b = self.base
+        south = r[b] + self.tx * (r[b + 1] - r[b])
+        north = r[b + self.stride] + self.tx * (r[b + self.stride + 1] - r[b + self.stride])
+        return south + self.ty * (north - south)
+
+
+@dataclass(frozen=True)
+class CellSort:
+    """Points sorted by cell, then by height: sorted once, queried for the lowest per cell many times."""
+
+    grid: Grid
+    order: NDArray[np.intp]  # point indices, by cell then z
+    cell: NDArray[np.intp]  # flat cell of each point in that order
+
+    @classmethod
+    def of(cls, grid: Grid, xyz: NDArray[np.float64]) -> CellSort:
+        row, col = grid.index(xyz[:, :2])
+        flat = row * grid.shape[1] + col
+        order = np.lexsort((xyz[:, 2], flat))
+        return cls(grid, order, flat[order])
+
+    def lowest(self, mask: NDArray[np.bool_] | None = None) -> NDArray[np.intp]:
+        """Raster of the index of the lowest point (among ``mask``) per cell; -1 where there is none."""
+        order, cell = (
+            (self.order, self.cell)
+            if mask is None
+            else (self.order[mask[self.order]], self.cell[mask[self.order]])
+        )
+        first = np.r_[True, cell[1:] != cell[:-1]] if len(cell) else np.zeros(0, bool)
+        idx = np.full(self.grid.shape[0] * self.grid.shape[1], -1, np.intp)
+        idx[cell[first]] = order[first]
+        return idx.reshape(self.grid.shape)
+
+    def lowest_z(self, xyz: NDArray[np.float64], n: int) -> NDArray[np.float64]:
+        """(rows, cols, n) raster of the ``n`` lowest z per cell, ascending; +inf where a cell has fewer."""
+        start = np.r_[0, np.flatnonzero(self.cell[1:] != self.cell[:-1]) + 1]
+        place = np.arange(len(self.cell)) - np.repeat(start, np.diff(np.r_[start, len(self.cell)]))
+        low = np.full((self.grid.shape[0] * self.grid.shape[1], n), np.inf)
+        first = place < n
+        low[self.cell[first], place[first]] = xyz[self.order[first], 2]
+        return low.reshape(*self.grid.shape, n)
+
 
 def lowest_per_cell(grid: Grid, xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """Raster of the lowest z per cell (NaN where empty) and the index of that point (-1 where empty)."""
-    row, col = grid.index(xyz[:, :2])
-    flat = row * grid.shape[1] + col
-    order = np.lexsort((xyz[:, 2], flat))
-    first = np.r_[True, flat[order][1:] != flat[order][:-1]]
-    idx = np.full(grid.shape[0] * grid.shape[1], -1, np.intp)
-    idx[flat[order][first]] = order[first]
-    z = np.full(idx.shape, np.nan)
-    z[idx >= 0] = xyz[idx[idx >= 0], 2]
-    return z.reshape(grid.shape), idx.reshape(grid.shape)
+    idx = CellSort.of(grid, xyz).lowest()
+    z = np.where(idx >= 0, xyz[idx, 2], np.nan)
+    return z, idx
 
 
-def fill_nearest(raster: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Replace NaN cells by the value of the nearest filled cell."""
-    holes = np.isnan(raster)
-    if not holes.any():
-        return raster
-    if holes.all():
-        raise InputError("raster has no data to fill from")
-    _, (ri, ci) = ndimage.distance_transform_edt(holes, return_indices=True)
-    return raster[ri, ci]
+def corner_heights(grid: Grid, xyz: NDArray[np.float64], lowest: NDArray[np.intp]) -> NDArray[np.float32]:
+    """Heights at the cell corners, shape (rows + 1, cols + 1): inverse-square-distance mean
+    of the chosen point of each of the four cells around the corner (``lowest``: a raster of
+    point indices, -1 where empty, as from :meth:`CellSort.lowest`); NaN where all four are empty.
+
+    The points keep their true positions, so on a slope the corner height is not
+    biased the way a cell's lowest point placed at its centre would be. Single precision
+    (0.1 mm at 1000 m) halves the memory traffic of the passes that fill and sample it.
+    """
+    rows, cols = grid.shape
+    r, c = np.nonzero(lowest >= 0)
+    p = xyz[lowest[r, c]]
+    fu = (p[:, 0] - grid.x0) / grid.cell - c
+    fv = (p[:, 1] - grid.y0) / grid.cell - r
+    corner = r * (cols + 1) + c
+    size = (rows + 1) * (cols + 1)
+    num = np.zeros(size)
+    den = np.zeros(size)
+    # each point feeds the four corners of its cell; scattering over the filled cells only
+    # is cheaper than stacking shifted rasters that are mostly empty on sparse data
+    for di in (0, 1):
+        for dj in (0, 1):
+            w = 1.0 / ((fu - dj) ** 2 + (fv - di) ** 2 + 1e-6)
+            at = corner + di * (cols + 1) + dj
+            num += np.bincount(at, w * p[:, 2], minlength=size)
+            den += np.bincount(at, w, minlength=size)
+    out = np.full(size, np.nan, np.float32)
+    np.divide(num, den, out=out, where=den > 0, casting="same_kind")
+    return out.reshape(rows + 1, cols + 1)

@@ -2,6 +2,11 @@
 
 Multipath and bird-strike returns can lie tens of metres below the terrain; a
 filter that grows ground from the lowest points would anchor on them.
+
+The test is on the k nearest neighbours, but a k-d tree query for every point
+took half the default filter's time. A raster stand-in (the 3 × 3 block of cells
+sized to hold about k points) picks the suspects first, leniently, and only those
+are queried: a few percent of the points on ordinary data.
 """
 
 from __future__ import annotations
@@ -9,6 +14,32 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
+
+from ingest.ground.grids import CellSort, Grid
+
+
+def _block_floor(xyz: NDArray[np.float64], *, k: int, rank: int) -> NDArray[np.float64]:
+    """Per point, the ``rank``-th lowest z among the other points of its 3 × 3 block."""
+    xy = xyz[:, :2]
+    # density over the occupied area, so gaps and an irregular outline do not inflate the cells
+    coarse = Grid.covering(xy, 4.0)
+    r4, c4 = coarse.index(xy)
+    occupied = len(np.unique(r4 * coarse.shape[1] + c4))
+    density = len(xyz) / (occupied * 16.0)
+    grid = Grid.covering(xy, max(float(np.sqrt((k + 1) / (9.0 * density))), 1e-3))
+    low = CellSort.of(grid, xyz).lowest_z(xyz, rank + 1)
+    padded = np.pad(low, ((1, 1), (1, 1), (0, 0)), constant_values=np.inf)
+    rows, cols = grid.shape
+    block = np.concatenate(
+        [padded[i : i + rows, j : j + cols] for i in range(3) for j in range(3)], axis=2
+    )  # (rows, cols, 9 * (rank + 1))
+    block.partition(rank, axis=2)
+    block = np.sort(block[:, :, : rank + 1], axis=2)
+    r, c = grid.index(xy)
+    candidates = block[r, c]
+    # the point is itself in its block: if it is among the lowest, skip it once
+    is_low = xyz[:, 2] <= candidates[:, rank - 1]
+    return np.where(is_low, candidates[:, rank], candidates[:, rank - 1])
 
 
 def low_outliers(
@@ -22,16 +53,22 @@ def low_outliers(
     """
     xyz = np.asarray(xyz, float)
     out = np.zeros(len(xyz), bool)
+    if len(xyz) <= k:
+        return out
+    test = np.flatnonzero(xyz[:, 2] < _block_floor(xyz, k=k, rank=rank) - drop / 2)
     for _ in range(passes):
         keep = np.flatnonzero(~out)
-        if len(keep) <= k:
+        if len(test) == 0 or len(keep) <= k:
             break
         tree = cKDTree(xyz[keep, :2])
-        _, nb = tree.query(xyz[keep, :2], k=k + 1)
+        _, nb = tree.query(xyz[test, :2], k=k + 1)
+        # the nearest hit is the point itself
         nz = np.sort(xyz[keep[nb[:, 1:]], 2], axis=1)
-        floor = nz[:, min(rank, k) - 1]
-        new = xyz[keep, 2] < floor - drop
-        if not new.any():
+        new = test[xyz[test, 2] < nz[:, min(rank, k) - 1] - drop]
+        if len(new) == 0:
             break
-        out[keep[new]] = True
+        out[new] = True
+        # only the points that had a new outlier among their neighbours need a second look
+        _, near = tree.query(xyz[new, :2], k=min(k + 1, len(keep)))
+        test = np.setdiff1d(keep[near.ravel()], new)
     return out

@@ -1,0 +1,84 @@
+"""Filling the holes of a raster: nearest value, or straight lines across the gap."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from tdb.errors import InputError
+
+
+def nearest_index(holes: NDArray[np.bool_]) -> NDArray[np.intp]:
+    """(2, rows, cols) row and column of the nearest cell that is not a hole."""
+    if holes.all():
+        raise InputError("raster has no data to fill from")
+    _, index = ndimage.distance_transform_edt(holes, return_indices=True)
+    return np.asarray(index)
+
+
+def fill_nearest(
+    raster: NDArray[np.floating[Any]], *, nearest: NDArray[np.intp] | None = None
+) -> NDArray[np.floating[Any]]:
+    """Replace NaN cells by the value of the nearest filled cell.
+
+    ``nearest``: a :func:`nearest_index` computed once for rasters filled many times with
+    about the same holes; where it points to a hole, the exact transform is run.
+    """
+    holes = np.isnan(raster)
+    if not holes.any():
+        return raster
+    if nearest is not None:
+        raster = np.where(holes, raster[nearest[0], nearest[1]], raster)
+        holes = np.isnan(raster)
+        if not holes.any():
+            return raster
+    ri, ci = nearest_index(holes)
+    return raster[ri, ci]
+
+
+def _across_rows(raster: NDArray[np.floating[Any]]) -> tuple[NDArray[np.floating[Any]], NDArray[np.floating[Any]]]:
+    """Per cell, the straight line along its row between the filled cells either side, and that gap's
+    length (inf where the row has no filled cell on one side)."""
+    rows, cols = raster.shape
+    filled = ~np.isnan(raster)
+    col = np.broadcast_to(np.arange(cols), raster.shape)
+    left = np.maximum.accumulate(np.where(filled, col, -1), axis=1)
+    right = np.minimum.accumulate(np.where(filled, col, cols)[:, ::-1], axis=1)[:, ::-1]
+    bracketed = (left >= 0) & (right < cols)
+    row = np.arange(rows)[:, None]
+    lv = raster[row, np.clip(left, 0, cols - 1)]
+    rv = raster[row, np.clip(right, 0, cols - 1)]
+    gap = (right - left).astype(raster.dtype)
+    t = np.where(bracketed, (col - left).astype(raster.dtype) / np.maximum(gap, 1), 0)
+    return np.where(bracketed, lv + t * (rv - lv), np.nan), np.where(bracketed, gap, np.inf)
+
+
+def fill_lines(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
+    """Fill NaN cells by straight lines across each gap along the row and the column,
+    weighted by the inverse square of the gap length; cells neither line brackets
+    (beyond the data) stay NaN.
+
+    A plane is filled exactly, like a TIN across the hole, but without a
+    triangulation; short gaps dominate, so a narrow hole follows its near banks.
+    """
+    holes = np.isnan(raster)
+    if not holes.any():
+        return raster
+    v_row, g_row = _across_rows(raster)
+    v_col, g_col = (a.T for a in _across_rows(raster.T))
+    # filled cells have gap 0 and are kept as they are; unbracketed ones have gap inf, weight 0
+    w_row = 1.0 / np.maximum(g_row, 1.0) ** 2
+    w_col = 1.0 / np.maximum(g_col, 1.0) ** 2
+    weight = w_row + w_col
+    line = (np.nan_to_num(v_row) * w_row + np.nan_to_num(v_col) * w_col) / np.where(weight > 0, weight, 1.0)
+    return np.where(holes & (weight > 0), line, raster)
+
+
+def fill_linear(
+    raster: NDArray[np.floating[Any]], *, nearest: NDArray[np.intp] | None = None
+) -> NDArray[np.floating[Any]]:
+    """:func:`fill_lines`, and beyond the data the nearest value (``nearest``: see :func:`fill_nearest`)."""
+    return fill_nearest(fill_lines(raster), nearest=nearest)

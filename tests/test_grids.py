@@ -1,0 +1,84 @@
+"""Rasters of the default ground filter: gap filling, corner heights, per-cell ordering, sampling."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+from ingest.ground.fill import fill_linear, fill_nearest
+from ingest.ground.grids import CellSort, Grid, corner_heights
+from tdb.errors import InputError
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    a=st.floats(-2, 2),
+    b=st.floats(-2, 2),
+    holes=st.floats(0.0, 0.9),
+)
+def test_fill_linear_reproduces_a_plane(seed, a, b, holes):
+    rng = np.random.default_rng(seed)
+    rows, cols = 30, 40
+    i, j = np.mgrid[0:rows, 0:cols]
+    plane = 5.0 + a * j + b * i
+    raster = plane.copy()
+    raster[rng.random(plane.shape) < holes] = np.nan
+    raster[0, 0] = plane[0, 0]
+    raster[-1, -1] = plane[-1, -1]
+    filled = fill_linear(raster)
+    bracketed = ~np.isnan(raster)
+    # cells bracketed along their row or column lie on the plane exactly
+    row_ok = np.maximum.accumulate(bracketed, axis=1) & np.maximum.accumulate(bracketed[:, ::-1], axis=1)[:, ::-1]
+    col_ok = np.maximum.accumulate(bracketed, axis=0) & np.maximum.accumulate(bracketed[::-1], axis=0)[::-1]
+    inside = row_ok | col_ok
+    assert not np.isnan(filled).any()
+    np.testing.assert_allclose(filled[inside], plane[inside], atol=1e-9)
+
+
+def test_fill_nearest_takes_the_nearest_value_and_refuses_an_empty_raster():
+    raster = np.full((5, 5), np.nan)
+    raster[0, 0], raster[4, 4] = 1.0, 2.0
+    filled = fill_nearest(raster)
+    assert filled[1, 0] == 1.0 and filled[3, 4] == 2.0
+    with pytest.raises(InputError):
+        fill_nearest(np.full((3, 3), np.nan))
+
+
+def test_cell_sort_lowest_matches_brute_force():
+    rng = np.random.default_rng(1)
+    xyz = np.column_stack([rng.uniform(0, 20, 2000), rng.uniform(0, 10, 2000), rng.normal(size=2000)])
+    grid = Grid.covering(xyz[:, :2], 1.0)
+    mask = rng.random(2000) < 0.5
+    idx = CellSort.of(grid, xyz).lowest(mask)
+    row, col = grid.index(xyz[:, :2])
+    for r in range(grid.shape[0]):
+        for c in range(grid.shape[1]):
+            members = np.flatnonzero(mask & (row == r) & (col == c))
+            if len(members) == 0:
+                assert idx[r, c] == -1
+            else:
+                assert idx[r, c] == members[np.argmin(xyz[members, 2])]
+
+
+def test_corner_heights_of_a_level_surface_and_empty_cells():
+    rng = np.random.default_rng(2)
+    xyz = np.column_stack([rng.uniform(0, 10, 500), rng.uniform(0, 10, 500), np.full(500, 7.5)])
+    xyz = xyz[~((xyz[:, 0] > 4) & (xyz[:, 0] < 7) & (xyz[:, 1] > 4) & (xyz[:, 1] < 7))]
+    grid = Grid.covering(xyz[:, :2], 1.0)
+    corners = corner_heights(grid, xyz, CellSort.of(grid, xyz).lowest())
+    assert corners.shape == (grid.shape[0] + 1, grid.shape[1] + 1)
+    assert np.isnan(corners[5, 5])  # all four cells around (5, 5) are empty
+    np.testing.assert_allclose(corners[~np.isnan(corners)], 7.5, atol=1e-5)
+
+
+def test_corner_sampler_is_bilinear():
+    rng = np.random.default_rng(3)
+    grid = Grid(100.0, 200.0, 2.0, (6, 8))
+    raster = rng.normal(size=(7, 9))
+    xy = np.column_stack([rng.uniform(100, 116, 300), rng.uniform(200, 212, 300)])
+    expected = ndimage.map_coordinates(raster, [(xy[:, 1] - 200) / 2, (xy[:, 0] - 100) / 2], order=1)
+    np.testing.assert_allclose(grid.corner_sampler(xy)(raster), expected, atol=1e-12)
