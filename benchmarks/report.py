@@ -44,10 +44,13 @@ def ground_section(out: list[str]) -> None:
             "Elmqvist ≤ 20 %.",
             "",
         ]
-    speed = _load("ground_speed")
-    if speed:
+    for name in ("ground_speed", "ground_speed_sohn"):
+        speed = _load(name)
+        if not speed:
+            continue
+        title = "the default filter and its peers" if name == "ground_speed" else "Sohn–Dowman"
         out += [
-            "## Ground filter speed and memory on the ISPRS site clouds",
+            f"## Ground filter speed and memory on the ISPRS site clouds: {title}",
             "",
             f"One process per run, one core (`python -m benchmarks.ground_speed`). Machine: {_machine(speed)}.",
             "",
