@@ -1,4 +1,4 @@
--- tdb schema version 1 (postgresql); generated from tdb/schema.py
+-- tdb schema version 2 (postgresql); generated from tdb/schema.py
 
 CREATE TABLE categories (
 	code SMALLINT NOT NULL, 
@@ -66,6 +66,15 @@ CREATE TABLE c8 (
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
 );
 
+CREATE TABLE point_blocks (
+	version INTEGER NOT NULL, 
+	bx INTEGER NOT NULL, 
+	by INTEGER NOT NULL, 
+	data BYTEA NOT NULL, 
+	PRIMARY KEY (version, bx, by), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+);
+
 CREATE TABLE tdb (
 	version INTEGER NOT NULL, 
 	x FLOAT(53) NOT NULL, 
@@ -73,5 +82,15 @@ CREATE TABLE tdb (
 	z FLOAT(53) NOT NULL, 
 	n SMALLINT NOT NULL, 
 	PRIMARY KEY (version, x, y), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+);
+
+CREATE TABLE tile_blocks (
+	version INTEGER NOT NULL, 
+	level SMALLINT NOT NULL, 
+	bx INTEGER NOT NULL, 
+	by INTEGER NOT NULL, 
+	codes BYTEA NOT NULL, 
+	PRIMARY KEY (version, level, bx, by), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
 );

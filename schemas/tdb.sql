@@ -1,4 +1,4 @@
--- tdb schema version 1 (sqlite); generated from tdb/schema.py
+-- tdb schema version 2 (sqlite); generated from tdb/schema.py
 
 CREATE TABLE categories (
 	code SMALLINT NOT NULL, 
@@ -70,6 +70,16 @@ CREATE TABLE c8 (
 )
  WITHOUT ROWID;
 
+CREATE TABLE point_blocks (
+	version INTEGER NOT NULL, 
+	bx INTEGER NOT NULL, 
+	"by" INTEGER NOT NULL, 
+	data BLOB NOT NULL, 
+	PRIMARY KEY (version, bx, "by"), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+)
+ WITHOUT ROWID;
+
 CREATE TABLE tdb (
 	version INTEGER NOT NULL, 
 	x FLOAT NOT NULL, 
@@ -77,6 +87,17 @@ CREATE TABLE tdb (
 	z FLOAT NOT NULL, 
 	n SMALLINT NOT NULL, 
 	PRIMARY KEY (version, x, y), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+)
+ WITHOUT ROWID;
+
+CREATE TABLE tile_blocks (
+	version INTEGER NOT NULL, 
+	level SMALLINT NOT NULL, 
+	bx INTEGER NOT NULL, 
+	"by" INTEGER NOT NULL, 
+	codes BLOB NOT NULL, 
+	PRIMARY KEY (version, level, bx, "by"), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
 )
  WITHOUT ROWID;

@@ -3,7 +3,9 @@
 ``versions``: one row per survey of the area. ``tdb``: the kept points (x, y, z)
 with the 4-bit level mask n. ``c2`` … ``c16``: the category of every tile, keyed
 by its lower-left corner in whole metres. ``categories``: what each code means.
-``meta``: the schema version.
+``meta``: the schema version. ``tile_blocks`` and ``point_blocks``: the same
+tiles and points cut into square blocks stored as BLOBs, for reading an area at
+once (:mod:`tdb.blocks`).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from sqlalchemy import (
     Float,
     ForeignKey,
     Integer,
+    LargeBinary,
     MetaData,
     SmallInteger,
     String,
@@ -21,7 +24,7 @@ from sqlalchemy import (
     Text,
 )
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: tile_blocks, point_blocks
 LEVEL_TABLES = {2: "c2", 4: "c4", 8: "c8", 16: "c16"}
 
 metadata = MetaData()
@@ -81,6 +84,27 @@ def _level_table(name: str) -> Table:
 
 
 level_tables = {level: _level_table(name) for level, name in LEVEL_TABLES.items()}
+
+tile_blocks = Table(
+    "tile_blocks",
+    metadata,
+    Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+    Column("level", SmallInteger, primary_key=True, autoincrement=False),
+    Column("bx", Integer, primary_key=True, autoincrement=False),
+    Column("by", Integer, primary_key=True, autoincrement=False),
+    Column("codes", LargeBinary, nullable=False),
+    sqlite_with_rowid=False,
+)
+
+point_blocks = Table(
+    "point_blocks",
+    metadata,
+    Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+    Column("bx", Integer, primary_key=True, autoincrement=False),
+    Column("by", Integer, primary_key=True, autoincrement=False),
+    Column("data", LargeBinary, nullable=False),
+    sqlite_with_rowid=False,
+)
 
 
 def ddl(dialect_name: str = "sqlite") -> str:

@@ -7,12 +7,12 @@ from numpy.typing import NDArray
 
 from ingest.ground.auto import AutoParams, auto_ground
 from ingest.ground.contour import ContourParams, active_contour
-from ingest.ground.outliers import low_outliers
+from ingest.ground.outliers import deep_pits, low_outliers
 from ingest.ground.sohn import SohnParams, sohn_dowman
 from tdb.cloud import PointCloud, check_spread, from_arrays
 from tdb.options import GroundMethod, parse
 
-__all__ = ["AutoParams", "ContourParams", "SohnParams", "classify_ground", "low_outliers"]
+__all__ = ["AutoParams", "ContourParams", "SohnParams", "classify_ground", "deep_pits", "low_outliers"]
 
 
 def classify_ground(
@@ -37,8 +37,9 @@ def classify_ground(
     xyz = cloud.xyz
     if m is GroundMethod.AUTO:
         return auto_ground(xyz)
-    # The papers have no outlier step; both use the default filter's (see docs/ground.md).
-    out = low_outliers(xyz)
+    # The papers have no outlier step; both use the default filter's (see docs/ground.md):
+    # Sohn's downward step would make a 25 m deep multipath cluster a TIN vertex (samp41).
+    out = low_outliers(xyz) | deep_pits(xyz)
     ground = np.zeros(len(xyz), bool)
     keep = np.flatnonzero(~out)
     if m is GroundMethod.SOHN:

@@ -25,8 +25,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from ingest.ground.fill import fill_linear, fill_nearest
+from ingest.ground.fill import fill_linear
 from ingest.ground.grids import CellSort, Grid, corner_heights
+from ingest.ground.morphology import progressive_opening
 from ingest.ground.outliers import low_outliers
 
 
@@ -43,30 +44,6 @@ class AutoParams:
     pit_window: float = 8.0  # widest low-outlier cluster (m, radius)
     pit_slope: float = 3.0  # pit walls steeper than this, beyond pit_depth, are not terrain
     pit_depth: float = 2.0
-
-
-def progressive_opening(
-    zmin: NDArray[np.float64], *, cell: float, max_window: float, slope: float, offset: float = 0.05
-) -> NDArray[np.bool_]:
-    """Object mask of a lowest-point raster by openings with growing windows.
-
-    A cell is an object once an opening lowers it by more than
-    ``offset + slope × window radius``.
-    """
-    surface = fill_nearest(zmin)
-    objects = np.zeros(zmin.shape, bool)
-    radius = 1
-    while radius * cell <= max_window:
-        size = 2 * radius + 1
-        # "nearest": terrain continues past the data edge, so a terrace cut by the
-        # edge is not mistaken for an object narrower than the window.
-        opened = ndimage.maximum_filter(
-            ndimage.minimum_filter(surface, size=size, mode="nearest"), size=size, mode="nearest"
-        )
-        objects |= surface - opened > slope * radius * cell + offset
-        surface = opened
-        radius = radius * 2 if radius >= 4 else radius + 1
-    return objects & ~np.isnan(zmin)
 
 
 def ground_surface(

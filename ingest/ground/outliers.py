@@ -15,7 +15,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from ingest.ground.fill import fill_nearest
 from ingest.ground.grids import CellSort, Grid
+from ingest.ground.morphology import progressive_opening
 
 
 def _block_floor(xyz: NDArray[np.float64], *, k: int, rank: int) -> NDArray[np.float64]:
@@ -72,3 +74,24 @@ def low_outliers(
         _, near = tree.query(xyz[new, :2], k=min(k + 1, len(keep)))
         test = np.setdiff1d(keep[near.ravel()], new)
     return out
+
+
+def deep_pits(
+    xyz: NDArray[np.float64], *, cell: float = 1.0, window: float = 8.0, slope: float = 3.0, depth: float = 2.0
+) -> NDArray[np.bool_]:
+    """Mask of points in clusters of low outliers too big for :func:`low_outliers`.
+
+    The opening of the upside-down lowest-point raster finds pits up to ``window`` m
+    in radius whose walls are steeper than ``slope`` beyond ``depth`` m; a point in
+    such a pit is an outlier if it lies more than ``depth`` below the nearest cell
+    that is not a pit.
+    """
+    grid = Grid.covering(xyz[:, :2], cell)
+    idx = CellSort.of(grid, xyz).lowest()
+    zmin = np.where(idx >= 0, xyz[idx, 2], np.nan)
+    pits = progressive_opening(-zmin, cell=cell, max_window=window, slope=slope, offset=depth)
+    if not pits.any():
+        return np.zeros(len(xyz), bool)
+    rim = fill_nearest(np.where(pits, np.nan, zmin))
+    row, col = grid.index(xyz[:, :2])
+    return pits[row, col] & (xyz[:, 2] < rim[row, col] - depth)

@@ -22,7 +22,6 @@ from numpy.typing import NDArray
 from scipy.spatial import Delaunay
 
 from ingest.ground.tin import (
-    angle_between,
     barycentric,
     cross_pairs,
     group_starts,
@@ -42,7 +41,7 @@ class SohnParams:
     alpha: float = 0.1
     beta: float = 45.0
     max_candidates: int = 16  # lowest member points tried per triangle
-    reject_all_facets: bool = False  # True: reject only if every facet has a point below (see docs)
+    reject_facets: int = 3  # reject when this many lateral facets have a point below (3 = literal; see docs)
     below_tolerance: float = 0.1  # how far below a facet (m) a point must be to count as below
     max_iterations: int = 200
 
@@ -164,7 +163,7 @@ def upward(
         below = h[mi] - t * h[cand[ci]] < -p.below_tolerance
         facet_below = np.zeros((len(cand), 3), bool)
         np.logical_or.at(facet_below, (ci[below], k[below]), True)
-        rejected = facet_below.all(axis=1) if p.reject_all_facets else facet_below.any(axis=1)
+        rejected = facet_below.sum(axis=1) >= p.reject_facets
         cand = cand[~rejected]
         if len(cand) == 0:
             break
@@ -190,6 +189,23 @@ def _facet_t(
     return np.clip(ratio[np.arange(len(k)), k], 0.0, 1.0), k
 
 
+def _facet_planes(
+    base: NDArray[np.float64], apex: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The three lateral facets of each tetrahedron: base (M, 3 vertices, xyz) with vertex k
+    replaced by the apex (M, xyz). Returns planes z = a·x + b·y + c as (M, 3 facets, [a, b, c])
+    and upward unit normals (M, 3 facets, xyz)."""
+    m = len(apex)
+    facets = np.repeat(base[:, None], 3, axis=1)  # (M, k, vertex, xyz)
+    facets[:, [0, 1, 2], [0, 1, 2]] = apex[:, None, :]
+    flat = facets.reshape(3 * m, 3, 3)
+    normals = unit_normals(flat[:, 0], flat[:, 1], flat[:, 2])
+    nz = np.where(np.abs(normals[:, 2]) < EPS, EPS, normals[:, 2])
+    a, b = -normals[:, 0] / nz, -normals[:, 1] / nz
+    c = flat[:, 0, 2] - a * flat[:, 0, 0] - b * flat[:, 0, 1]
+    return np.column_stack([a, b, c]).reshape(m, 3, 3), normals.reshape(m, 3, 3)
+
+
 def _description_lengths(
     xyz: NDArray[np.float64],
     free: NDArray[np.intp],
@@ -204,7 +220,11 @@ def _description_lengths(
     all_tris: NDArray[np.intp],
     p: SohnParams,
 ) -> NDArray[np.float64]:
-    """Eq. 12 for every candidate tetrahedron, over the global TIN triangles in its base."""
+    """Eq. 12 for every candidate tetrahedron, over the global TIN triangles in its base.
+
+    Work per (candidate, TIN triangle) pair is kept to gathers and a few products:
+    facet planes are computed per candidate and barycentrics per triangle.
+    """
     n_cand = len(cand)
     base_simplex = simplex[cand]
     # Global TIN triangles in the candidates' base triangles: a triangle belongs to the
@@ -213,33 +233,22 @@ def _description_lengths(
     point_simplex[free] = simplex
     vs = point_simplex[all_tris]
     c_simplex = np.where(vs[:, 0] >= 0, vs[:, 0], np.where(vs[:, 1] >= 0, vs[:, 1], vs[:, 2]))
-    wanted = np.isin(c_simplex, base_simplex)
-    tri_ids = np.flatnonzero(wanted)
-    ci, ti = cross_pairs(base_simplex, c_simplex[tri_ids])
-    ti = tri_ids[ti]
-    apex = xyz[free[cand]]
-    H = h[cand]
-    lam_apex = lam[cand]
-    # Which facet holds each triangle's centroid, and that facet's plane.
-    lam_c = barycentric(tri, base_simplex[ci], centroid_xy[ti])
-    ratio = lam_c / np.maximum(lam_apex[ci], EPS)
-    k = ratio.argmin(axis=1)
-    base_v = verts[tri.simplices[base_simplex[ci]]]  # (P, 3 vertices, xyz)
-    facet = base_v.copy()
-    facet[np.arange(len(ci)), k] = apex[ci]
-    fn = unit_normals(facet[:, 0], facet[:, 1], facet[:, 2])
+    tri_ids = np.flatnonzero(np.isin(c_simplex, base_simplex))
+    lam_c = barycentric(tri, c_simplex[tri_ids], centroid_xy[tri_ids])  # per triangle, once
+    ci, tj = cross_pairs(base_simplex, c_simplex[tri_ids])
+    planes, normals = _facet_planes(verts[tri.simplices[base_simplex]], xyz[free[cand]])
+    # Which facet holds each triangle's centroid (see _facet_t).
+    k = (lam_c[tj] / np.maximum(lam[cand][ci], EPS)).argmin(axis=1)
+    plane = planes[ci, k]
     # Label the triangle's vertices by height over the facet plane (Eq. 6 with δh).
-    vx = xyz[all_tris[ti]]  # (P, 3, 3)
-    d = ((vx - facet[:, 0:1, :]) * fn[:, None, :]).sum(axis=2) / np.maximum(fn[:, 2:3], EPS)
-    on = d <= p.delta_h
-    n_on = on.sum(axis=1)
-    dtheta = angle_between(tri_normals[ti], fn)
+    vx = xyz[all_tris[tri_ids[tj]]]  # (P, 3, xyz)
+    d = vx[:, :, 2] - (plane[:, None, 0] * vx[:, :, 0] + plane[:, None, 1] * vx[:, :, 1] + plane[:, None, 2])
+    n_on = (d <= p.delta_h).sum(axis=1)
+    dtheta = np.degrees(np.arccos(np.clip((tri_normals[tri_ids[tj]] * normals[ci, k]).sum(axis=1), -1.0, 1.0)))
     cost = np.where(n_on == 3, -np.log2(p_on(dtheta, p)), np.where(n_on > 0, -np.log2(p_buf(dtheta, p)), 0.0))
-    dl = np.zeros(n_cand)
-    np.add.at(dl, ci, cost)
-    n_offs = np.zeros(n_cand)
-    np.add.at(n_offs, ci, n_on == 0)
-    return dl - np.log2(np.maximum(n_offs, 1)) + np.log2(np.maximum(H, 1e-3))
+    dl = np.bincount(ci, cost, minlength=n_cand).astype(np.float64)
+    n_offs = np.bincount(ci, (n_on == 0).astype(np.float64), minlength=n_cand).astype(np.float64)
+    return dl - np.log2(np.maximum(n_offs, 1.0)) + np.log2(np.maximum(h[cand], 1e-3))
 
 
 def sohn_dowman(xyz: NDArray[np.float64], *, params: SohnParams | None = None) -> NDArray[np.bool_]:

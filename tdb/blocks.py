@@ -1,0 +1,108 @@
+"""Area pages: the tiles and points of a version cut into square blocks stored as BLOBs.
+
+The row tables (``tdb``, ``c2`` … ``c16``) answer SQL; an area of interest of a
+square kilometre is 250 000 tiles and as many points at the 2 m level, and
+stepping through that many rows costs a second in Python. The same data cut into
+blocks (a uint8 raster of codes per block of 128 × 128 tiles; the points of each
+256 m block as packed arrays) is read as a few dozen BLOBs and decoded by numpy.
+Writes keep both in the same transaction.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tdb.categories import NO_DATA
+
+TILES_PER_BLOCK = 128
+POINT_BLOCK = 256.0  # m
+ABSENT = 254  # no tile stored there; not a category code, and unlike NO_DATA (a stored tile without data)
+assert ABSENT != NO_DATA
+
+
+def _group_starts(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.intp]:
+    """Where each run of equal (a, b) starts, for arrays sorted by (a, b)."""
+    if len(a) == 0:
+        return np.empty(0, np.intp)
+    return np.flatnonzero(np.r_[True, (a[1:] != a[:-1]) | (b[1:] != b[:-1])])
+
+
+def tile_blocks(
+    xg: NDArray[np.int64], yg: NDArray[np.int64], code: NDArray[np.uint8], *, level: int
+) -> Iterator[tuple[int, int, bytes]]:
+    """(bx, by, blob) per block: a row-major (south first) raster of codes, ABSENT where no tile."""
+    side = TILES_PER_BLOCK * level
+    bx, by = np.floor_divide(xg, side), np.floor_divide(yg, side)
+    col = (xg - bx * side) // level
+    row = (yg - by * side) // level
+    order = np.lexsort((by, bx))
+    starts = _group_starts(bx[order], by[order])
+    for s, e in zip(starts, np.r_[starts[1:], len(order)]):
+        sel = order[s:e]
+        raster = np.full((TILES_PER_BLOCK, TILES_PER_BLOCK), ABSENT, np.uint8)
+        raster[row[sel], col[sel]] = code[sel]
+        yield int(bx[sel[0]]), int(by[sel[0]]), raster.tobytes()
+
+
+def tiles_from_blocks(
+    blocks: list[tuple[int, int, bytes]], bbox: tuple[float, float, float, float], *, level: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]:
+    """(xg, yg, code) of the tiles of ``blocks`` overlapping ``bbox``, block by block."""
+    side = TILES_PER_BLOCK * level
+    x0, y0, x1, y1 = bbox
+    parts = []
+    for bx, by, blob in blocks:
+        raster = np.frombuffer(blob, np.uint8).reshape(TILES_PER_BLOCK, TILES_PER_BLOCK)
+        xs = bx * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * level
+        ys = by * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * level
+        cols = np.flatnonzero((xs + level > x0) & (xs < x1))
+        rows = np.flatnonzero((ys + level > y0) & (ys < y1))
+        sub = raster[np.ix_(rows, cols)]
+        r, c = np.nonzero(sub != ABSENT)
+        parts.append((xs[cols[c]], ys[rows[r]], sub[r, c]))
+    if not parts:
+        return np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0, np.uint8)
+    xg, yg, code = (np.concatenate(p) for p in zip(*parts))
+    return xg, yg, code
+
+
+def point_blocks(
+    x: NDArray[np.float64], y: NDArray[np.float64], z: NDArray[np.float64], n: NDArray[np.uint8]
+) -> Iterator[tuple[int, int, bytes]]:
+    """(bx, by, blob) per 256 m block: x, y, z as float64 then n as uint8, packed."""
+    bx = np.floor(x / POINT_BLOCK).astype(np.int64)
+    by = np.floor(y / POINT_BLOCK).astype(np.int64)
+    order = np.lexsort((by, bx))
+    bxs, bys = bx[order], by[order]
+    starts = _group_starts(bxs, bys)
+    for s, e in zip(starts, np.r_[starts[1:], len(order)]):
+        sel = order[s:e]
+        blob = (
+            b"".join(
+                [x[sel].astype("<f8").tobytes(), y[sel].astype("<f8").tobytes(), z[sel].astype("<f8").tobytes()]
+            )
+            + n[sel].astype(np.uint8).tobytes()
+        )
+        yield int(bxs[s]), int(bys[s]), blob
+
+
+def points_from_blocks(
+    blocks: list[bytes], bbox: tuple[float, float, float, float], *, mask: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
+    """(x, y, z, n) of the points of ``blocks`` inside ``bbox`` whose level mask has a bit of ``mask``."""
+    x0, y0, x1, y1 = bbox
+    parts = []
+    for blob in blocks:
+        m = len(blob) // 25
+        f = np.frombuffer(blob, "<f8", count=3 * m)
+        x, y, z = f[:m], f[m : 2 * m], f[2 * m :]
+        n = np.frombuffer(blob, np.uint8, offset=24 * m)
+        keep = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1) & ((n & mask) > 0)
+        parts.append((x[keep], y[keep], z[keep], n[keep]))
+    if not parts:
+        return np.empty(0), np.empty(0), np.empty(0), np.empty(0, np.uint8)
+    x, y, z, n = (np.concatenate(p) for p in zip(*parts))
+    return x, y, z, n

@@ -1,0 +1,90 @@
+"""Area pages: blocks of tiles and points read back exactly as the row tables hold them."""
+
+from __future__ import annotations
+
+import sqlite3
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import tdb
+from tdb.blocks import points_from_blocks, tile_blocks, tiles_from_blocks
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), level=st.sampled_from([2, 4, 8, 16]), n=st.integers(0, 400))
+def test_tile_blocks_round_trip_any_bbox(seed, level, n):
+    rng = np.random.default_rng(seed)
+    cells = rng.choice(400 * 400, size=n, replace=False)
+    xg = (cells % 400).astype(np.int64) * level - 300 * level + 500_000
+    yg = (cells // 400).astype(np.int64) * level - 200 * level
+    code = rng.choice(np.r_[np.arange(115), 255], size=n).astype(np.uint8)  # no-data tiles are stored too
+    x0, y0 = rng.uniform(xg.min(initial=500_000), xg.max(initial=500_100), 2) if n else (500_000.0, 0.0)
+    bbox = (float(x0), float(y0 - 500), float(x0 + rng.uniform(0, 900)), float(y0 + rng.uniform(0, 900)))
+    got = tiles_from_blocks(list(tile_blocks(xg, yg, code, level=level)), bbox, level=level)
+    want = (xg + level > bbox[0]) & (xg < bbox[2]) & (yg + level > bbox[1]) & (yg < bbox[3])
+    assert sorted(zip(*(a.tolist() for a in got))) == sorted(
+        zip(xg[want].tolist(), yg[want].tolist(), code[want].tolist())
+    )
+
+
+def test_point_blocks_filter_by_bbox_and_level():
+    from tdb.blocks import point_blocks
+
+    rng = np.random.default_rng(5)
+    x = np.round(rng.uniform(-300, 700, 3000) * 2) / 2
+    y = np.round(rng.uniform(100, 900, 3000) * 2) / 2
+    z = rng.normal(size=3000)
+    n = rng.integers(1, 16, 3000).astype(np.uint8)
+    bbox = (0.0, 200.0, 400.0, 650.0)
+    got = points_from_blocks([b for _, _, b in point_blocks(x, y, z, n)], bbox, mask=4)
+    want = (x >= 0) & (x <= 400) & (y >= 200) & (y <= 650) & ((n & 4) > 0)
+    assert sorted(zip(got[0], got[1], got[2])) == sorted(zip(x[want], y[want], z[want]))
+
+
+def _write(db):
+    rng = np.random.default_rng(1)
+    k = np.arange(900)
+    levels = {
+        lv: ((k % 30) * lv + 500_000, (k // 30) * lv + 5_000_000, rng.integers(0, 115, 900).astype(np.uint8))
+        for lv in (2, 4, 8, 16)
+    }
+    pts = ((k % 30) * 2.0 + 500_000, (k // 30) * 2.0 + 5_000_000, rng.normal(size=900), np.full(900, 15, np.uint8))
+    db.write_version("v", levels=levels, points=pts)
+    return levels, pts
+
+
+def test_aoi_matches_row_tables(tmp_path):
+    db = tdb.open(tmp_path / "a.tdb", create=True)
+    _write(db)
+    bbox = (500_010.0, 5_000_007.0, 500_041.0, 5_000_033.0)
+    area = db.aoi(bbox, level=4)
+    xg, yg, code = db.tiles("v", level=4, bbox=bbox)
+    assert sorted(zip(area.xg.tolist(), area.yg.tolist(), area.code.tolist())) == sorted(
+        zip(xg.tolist(), yg.tolist(), code.tolist())
+    )
+    _, _, z, _ = db.points("v", level=4, bbox=bbox)
+    np.testing.assert_array_equal(np.sort(area.z), np.sort(z))
+
+
+def test_schema_1_file_is_upgraded_with_blocks(tmp_path):
+    path = tmp_path / "old.tdb"
+    db = tdb.open(path, create=True)
+    _write(db)
+    bbox = (500_000.0, 5_000_000.0, 500_030.0, 5_000_030.0)
+    before = db.aoi(bbox, level=2)
+    db.engine.dispose()
+    con = sqlite3.connect(path)
+    con.execute("DROP TABLE tile_blocks")
+    con.execute("DROP TABLE point_blocks")
+    con.execute("UPDATE meta SET value = '1' WHERE key = 'schema_version'")
+    con.commit()
+    con.close()
+    again = tdb.open(path)
+    assert again.schema_version() == 2
+    after = again.aoi(bbox, level=2)
+    assert sorted(zip(before.xg.tolist(), before.yg.tolist(), before.code.tolist())) == sorted(
+        zip(after.xg.tolist(), after.yg.tolist(), after.code.tolist())
+    )
+    np.testing.assert_array_equal(np.sort(before.z), np.sort(after.z))
