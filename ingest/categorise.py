@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from tdb.categories import NO_DATA, templates
 
 DEFAULT_CANDIDATES = 4
-CHUNK = 65_536
+CHUNK = 4096  # tiles per pass: the 4096 × 114 distance matrix (1.9 MB) stays in cache; 65 536 ran 1.5× slower
 
 
 def categorise(
