@@ -46,6 +46,8 @@ def main() -> None:
         default="ground_speed",
         help="results name (the slow Sohn–Dowman runs go to ground_speed_sohn)",
     )
+    parser.add_argument("--sites", default=",".join(SITES))
+    parser.add_argument("--timeout", type=float, default=1800, help="seconds per run before it is stopped")
     parser.add_argument("--one", nargs=2, metavar=("METHOD", "SITE"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
@@ -54,13 +56,18 @@ def main() -> None:
     table: dict[str, dict[str, dict[str, float]]] = {}
     for method in [m.strip() for m in args.methods.split(",")]:
         table[method] = {}
-        for site in SITES:
-            out = subprocess.run(
-                [sys.executable, "-m", "benchmarks.ground_speed", "--one", method, site],
-                capture_output=True,
-                text=True,
-                timeout=1800,
-            )
+        for site in [s.strip() for s in args.sites.split(",")]:
+            try:
+                out = subprocess.run(
+                    [sys.executable, "-m", "benchmarks.ground_speed", "--one", method, site],
+                    capture_output=True,
+                    text=True,
+                    timeout=args.timeout,
+                )
+            except subprocess.TimeoutExpired:
+                table[method][site] = {"error": f"stopped after {args.timeout:.0f} s"}
+                print(method, site, table[method][site], flush=True)
+                continue
             if out.returncode != 0:
                 table[method][site] = {"error": out.stderr.strip().splitlines()[-1] if out.stderr else "failed"}
             else:

@@ -35,6 +35,7 @@ class Filter:
     measure: str = "height"
     description: str = ""
     join: str = "lines"
+    min_measure: float = 0.0
 
 
 def _schema() -> dict[str, Any]:
@@ -70,6 +71,7 @@ def parse_filter(doc: dict[str, Any]) -> Filter:
         doc.get("measure", "height"),
         doc.get("description", ""),
         join,
+        float(doc.get("min_measure", 0.0)),
     )
 
 

@@ -43,6 +43,8 @@ def find(
     out = []
     for g in groups:
         measure = float(np.nanmean([_relief(heights, int(xg[t]), int(yg[t]), lv, flt.measure) for t in g]))
+        if measure < flt.min_measure:  # NaN (no relief measured) is kept
+            continue
         if flt.linear:
             parts = [lines[t] for t in g if lines[t] is not None]
             geom = shapely.line_merge(shapely.union_all(parts))

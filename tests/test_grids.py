@@ -82,3 +82,17 @@ def test_corner_sampler_is_bilinear():
     xy = np.column_stack([rng.uniform(100, 116, 300), rng.uniform(200, 212, 300)])
     expected = ndimage.map_coordinates(raster, [(xy[:, 1] - 200) / 2, (xy[:, 0] - 100) / 2], order=1)
     np.testing.assert_allclose(grid.corner_sampler(xy)(raster), expected, atol=1e-12)
+
+
+def test_by_tiles_equals_the_whole_cloud_for_a_local_filter():
+    from ingest.ground.tiling import by_tiles
+
+    rng = np.random.default_rng(4)
+    xyz = np.column_stack([rng.uniform(0, 400, 20_000), rng.uniform(0, 300, 20_000), rng.normal(size=20_000)])
+
+    def local(points):  # depends on each point alone, so tiling must not change it
+        return points[:, 2] < 0.5 * np.sin(points[:, 0] / 7.0)
+
+    tiled = by_tiles(xyz, local, target_points=2_000, buffer=10.0)
+    np.testing.assert_array_equal(tiled, local(xyz))
+    assert by_tiles(xyz[:100], local, target_points=2_000).sum() == local(xyz[:100]).sum()

@@ -9,6 +9,7 @@ from ingest.ground.auto import AutoParams, auto_ground
 from ingest.ground.contour import ContourParams, active_contour
 from ingest.ground.outliers import deep_pits, low_outliers
 from ingest.ground.sohn import SohnParams, sohn_dowman
+from ingest.ground.tiling import by_tiles
 from tdb.cloud import PointCloud, check_spread, from_arrays
 from tdb.options import GroundMethod, parse
 
@@ -43,7 +44,7 @@ def classify_ground(
     ground = np.zeros(len(xyz), bool)
     keep = np.flatnonzero(~out)
     if m is GroundMethod.SOHN:
-        ground[keep] = sohn_dowman(xyz[keep])
+        ground[keep] = by_tiles(xyz[keep], sohn_dowman)
     else:
         ground[keep] = active_contour(xyz[keep])
     return ground

@@ -38,7 +38,7 @@ class AutoParams:
     slope: float = 0.15  # terrain slope the opening tolerates (rise/run)
     threshold: float = 0.4  # height above the ground TIN still ground on flat land (m)
     slope_scale: float = 1.25  # extra threshold per unit of local TIN slope
-    below: float = 1.0  # points this far below the TIN are not ground (m)
+    below: float = 2.0  # points this far below the surface are not ground (m)
     refinements: int = 8  # at most; fewer once a pass changes under ``settled`` of the labels
     settled: float = 2e-4
     pit_window: float = 8.0  # widest low-outlier cluster (m, radius)
