@@ -15,7 +15,7 @@ def nearest_index(holes: NDArray[np.bool_]) -> NDArray[np.intp]:
     """(2, rows, cols) row and column of the nearest cell that is not a hole."""
     if holes.all():
         raise InputError("raster has no data to fill from")
-    _, index = ndimage.distance_transform_edt(holes, return_indices=True)
+    index = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
     return np.asarray(index)
 
 
