@@ -68,7 +68,7 @@ def detect(
     *,
     level: int = 2,
     bbox: tuple[float, float, float, float] | None = None,
-    min_tiles: int = 3,
+    min_tiles: int = 8,
 ) -> list[dict[str, Any]]:
     """Changed regions between ``before`` and ``after`` as GeoJSON feature dicts."""
     xa, ya, ca = db.tiles(before, level=level, bbox=bbox)
