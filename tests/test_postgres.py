@@ -1,0 +1,56 @@
+"""The same database on PostgreSQL, through the same SQLAlchemy metadata.
+
+Runs when ``TDB_TEST_POSTGRES`` names a database URL the test may fill and empty, e.g.
+``postgresql+psycopg://postgres@/tdbtest?host=/tmp&port=54329`` (needs the ``postgres`` extra).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+import tdb
+from ingest.pipeline import ingest
+from ingest.synth import apply_changes, make_scene, sample
+from queries.changes import detect
+
+URL = os.environ.get("TDB_TEST_POSTGRES")
+pytestmark = pytest.mark.skipif(not URL, reason="set TDB_TEST_POSTGRES to a PostgreSQL URL to run")
+
+
+@pytest.fixture
+def pg():
+    pytest.importorskip("psycopg")
+    db = tdb.open(URL, create=True)
+    for v in db.versions():
+        db.delete_version(v.name)
+    yield db
+    for v in db.versions():
+        db.delete_version(v.name)
+
+
+def test_round_trip_area_sql_filter_and_diff_on_postgresql(pg, tmp_path):
+    scene = make_scene(seed=4, size=100)
+    cloud = sample(scene, density=2.0, seed=4)
+    v = ingest(cloud, pg, version="s")
+    area = pg.aoi(scene.bounds, level=2)
+    assert len(area.code) == v.stats["tiles_2m"]
+    # the same survey in SQLite gives the same tiles and points
+    lite = tdb.open(tmp_path / "s.tdb", create=True)
+    ingest(cloud, lite, version="s")
+    other = lite.aoi(scene.bounds, level=2)
+    assert sorted(zip(area.xg.tolist(), area.yg.tolist(), area.code.tolist())) == sorted(
+        zip(other.xg.tolist(), other.yg.tolist(), other.code.tolist())
+    )
+    np.testing.assert_allclose(np.sort(area.z), np.sort(other.z))
+    _, _, flat = pg.tiles("s", level=2, categories=[0])
+    assert len(flat) == int((area.code == 0).sum())
+    later, _ = apply_changes(scene, seed=4)
+    resurvey = sample(later, density=2.0, seed=9)
+    ingest(resurvey, pg, version="t")
+    ingest(resurvey, lite, version="t")
+    assert [f["properties"]["kind"] for f in detect(pg, "s", "t")] == [
+        f["properties"]["kind"] for f in detect(lite, "s", "t")
+    ]
