@@ -10,8 +10,6 @@ right where it lies within 2 m (one tile) of a true change.
 
 from __future__ import annotations
 
-import argparse
-import tempfile
 import time
 from pathlib import Path
 
@@ -19,7 +17,7 @@ import numpy as np
 import shapely
 
 import tdb
-from benchmarks.common import save
+from benchmarks.common import save, synthetic_runs
 from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
 from queries.changes import detect
@@ -57,16 +55,7 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--seeds", default="1,2,3")
-    parser.add_argument("--size", type=float, default=300)
-    parser.add_argument("--density", type=float, default=4)
-    args = parser.parse_args()
-    runs = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        for seed in [int(s) for s in args.seeds.split(",")]:
-            runs[seed] = evaluate(seed, args.size, args.density, Path(tmp))
-            print(seed, runs[seed], flush=True)
+    runs, settings = synthetic_runs(__doc__, evaluate)
     typed = [t for r in runs.values() for t in r["typed"].values()]  # type: ignore[attr-defined]
     summary = {
         "recall": float(np.mean([r["recall"] for r in runs.values()])),
@@ -75,7 +64,7 @@ def main() -> None:
         "changes": len(typed),
     }
     print(summary)
-    print(save("changes_synth", {"runs": runs, "mean": summary, "size": args.size, "density": args.density}))
+    print(save("changes_synth", {"runs": runs, "mean": summary, **settings}))
 
 
 if __name__ == "__main__":

@@ -43,3 +43,24 @@ def save(name: str, doc: dict[str, Any]) -> Path:
     path = RESULTS / f"{name}.json"
     path.write_text(json.dumps({"machine": machine(), **doc}, indent=1, default=float))
     return path
+
+
+def synthetic_runs(description: str, evaluate: Any) -> tuple[dict[int, Any], dict[str, Any]]:
+    """Parse ``--seeds/--size/--density`` and run ``evaluate(seed, size, density, workdir)`` per seed.
+
+    Returns the runs by seed and the settings to save beside them.
+    """
+    import argparse
+    import tempfile
+
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--seeds", default="1,2,3")
+    parser.add_argument("--size", type=float, default=300)
+    parser.add_argument("--density", type=float, default=4)
+    args = parser.parse_args()
+    runs = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in [int(s) for s in args.seeds.split(",")]:
+            runs[seed] = evaluate(seed, args.size, args.density, Path(tmp))
+            print(seed, runs[seed], flush=True)
+    return runs, {"size": args.size, "density": args.density}

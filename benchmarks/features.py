@@ -7,8 +7,6 @@ line is right where a true line of that kind lies within 2 m.
 
 from __future__ import annotations
 
-import argparse
-import tempfile
 import time
 from pathlib import Path
 
@@ -16,7 +14,7 @@ import numpy as np
 import shapely
 
 import tdb
-from benchmarks.common import save
+from benchmarks.common import save, synthetic_runs
 from ingest.pipeline import ingest
 from ingest.synth import make_scene, sample
 from queries.match import find
@@ -56,22 +54,13 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--seeds", default="1,2,3")
-    parser.add_argument("--size", type=float, default=300)
-    parser.add_argument("--density", type=float, default=4)
-    args = parser.parse_args()
-    runs = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        for seed in [int(s) for s in args.seeds.split(",")]:
-            runs[seed] = evaluate(seed, args.size, args.density, Path(tmp))
-            print(seed, runs[seed], flush=True)
+    runs, settings = synthetic_runs(__doc__, evaluate)
     summary = {
         k: {m: float(np.mean([runs[s][k][m] for s in runs])) for m in ("recall", "precision")}
         for k in ("ditch", "ridge")
     }
     print(summary)
-    print(save("features", {"runs": runs, "mean": summary, "size": args.size, "density": args.density}))
+    print(save("features", {"runs": runs, "mean": summary, **settings}))
 
 
 if __name__ == "__main__":

@@ -344,9 +344,9 @@ class Database:
             order = np.lexsort((yg, xg))
             return xg[order], yg[order], code[order]
         table = schema.level_tables[_level(level)]
-        q = select(table.c.xg, table.c.yg, table.c.c).where(table.c.version == vid)
-        if categories is not None:
-            q = q.where(table.c.c.in_([int(c) for c in categories]))
+        q = select(table.c.xg, table.c.yg, table.c.c).where(
+            table.c.version == vid, table.c.c.in_([int(c) for c in categories])
+        )
         if bbox is None:
             return _columns(self._fetch(q.order_by(table.c.xg, table.c.yg)), (np.int64, np.int64, np.uint8))
         x0, y0, x1, y1 = bbox

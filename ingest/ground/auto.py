@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from ingest.ground.fill import fill_linear
-from ingest.ground.grids import CellSort, Grid, corner_heights
+from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of
 from ingest.ground.morphology import progressive_opening
 from ingest.ground.outliers import low_outliers
 
@@ -73,7 +73,7 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
     grid = Grid.covering(pts[:, :2], p.cell)
     cells = CellSort.of(grid, pts)
     idx = cells.lowest()
-    zmin = np.where(idx >= 0, pts[idx, 2], np.nan)
+    zmin = heights_of(idx, pts)
     objects = progressive_opening(zmin, cell=p.cell, max_window=p.max_window, slope=p.slope)
     # Clusters of low outliers too big for the neighbour test: deep narrow pits,
     # found by the same opening of the upside-down surface.

@@ -11,31 +11,14 @@ from scipy import ndimage
 from tdb.errors import InputError
 
 
-def nearest_index(holes: NDArray[np.bool_]) -> NDArray[np.intp]:
-    """(2, rows, cols) row and column of the nearest cell that is not a hole."""
-    if holes.all():
-        raise InputError("raster has no data to fill from")
-    index = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
-    return np.asarray(index)
-
-
-def fill_nearest(
-    raster: NDArray[np.floating[Any]], *, nearest: NDArray[np.intp] | None = None
-) -> NDArray[np.floating[Any]]:
-    """Replace NaN cells by the value of the nearest filled cell.
-
-    ``nearest``: a :func:`nearest_index` computed once for rasters filled many times with
-    about the same holes; where it points to a hole, the exact transform is run.
-    """
+def fill_nearest(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
+    """Replace NaN cells by the value of the nearest filled cell."""
     holes = np.isnan(raster)
     if not holes.any():
         return raster
-    if nearest is not None:
-        raster = np.where(holes, raster[nearest[0], nearest[1]], raster)
-        holes = np.isnan(raster)
-        if not holes.any():
-            return raster
-    ri, ci = nearest_index(holes)
+    if holes.all():
+        raise InputError("raster has no data to fill from")
+    ri, ci = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
     return raster[ri, ci]
 
 
@@ -77,8 +60,6 @@ def fill_lines(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
     return np.where(holes & (weight > 0), line, raster)
 
 
-def fill_linear(
-    raster: NDArray[np.floating[Any]], *, nearest: NDArray[np.intp] | None = None
-) -> NDArray[np.floating[Any]]:
-    """:func:`fill_lines`, and beyond the data the nearest value (``nearest``: see :func:`fill_nearest`)."""
-    return fill_nearest(fill_lines(raster), nearest=nearest)
+def fill_linear(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
+    """:func:`fill_lines`, and beyond the data the nearest value."""
+    return fill_nearest(fill_lines(raster))

@@ -116,11 +116,15 @@ class CellSort:
         return low.reshape(*self.grid.shape, n)
 
 
+def heights_of(idx: NDArray[np.intp], xyz: NDArray[np.float64]) -> NDArray[np.float64]:
+    """z of the point each cell of a raster of point indices names; NaN where -1."""
+    return np.where(idx >= 0, xyz[idx, 2], np.nan)
+
+
 def lowest_per_cell(grid: Grid, xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """Raster of the lowest z per cell (NaN where empty) and the index of that point (-1 where empty)."""
     idx = CellSort.of(grid, xyz).lowest()
-    z = np.where(idx >= 0, xyz[idx, 2], np.nan)
-    return z, idx
+    return heights_of(idx, xyz), idx
 
 
 def corner_heights(grid: Grid, xyz: NDArray[np.float64], lowest: NDArray[np.intp]) -> NDArray[np.float32]:

@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from ingest.ground.fill import fill_nearest
-from ingest.ground.grids import CellSort, Grid
+from ingest.ground.grids import CellSort, Grid, lowest_per_cell
 from ingest.ground.morphology import progressive_opening
 
 
@@ -87,8 +87,7 @@ def deep_pits(
     that is not a pit.
     """
     grid = Grid.covering(xyz[:, :2], cell)
-    idx = CellSort.of(grid, xyz).lowest()
-    zmin = np.where(idx >= 0, xyz[idx, 2], np.nan)
+    zmin, _ = lowest_per_cell(grid, xyz)
     pits = progressive_opening(-zmin, cell=cell, max_window=window, slope=slope, offset=depth)
     if not pits.any():
         return np.zeros(len(xyz), bool)

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from scipy.spatial import Delaunay
 
 from ingest.ground.tin import (
+    angle_between,
     barycentric,
     cross_pairs,
     group_starts,
@@ -237,14 +238,14 @@ def _description_lengths(
     lam_c = barycentric(tri, c_simplex[tri_ids], centroid_xy[tri_ids])  # per triangle, once
     ci, tj = cross_pairs(base_simplex, c_simplex[tri_ids])
     planes, normals = _facet_planes(verts[tri.simplices[base_simplex]], xyz[free[cand]])
-    # Which facet holds each triangle's centroid (see _facet_t).
-    k = (lam_c[tj] / np.maximum(lam[cand][ci], EPS)).argmin(axis=1)
+    # Which facet holds each triangle's centroid.
+    _, k = _facet_t(lam_c[tj], lam[cand][ci])
     plane = planes[ci, k]
     # Label the triangle's vertices by height over the facet plane (Eq. 6 with δh).
     vx = xyz[all_tris[tri_ids[tj]]]  # (P, 3, xyz)
     d = vx[:, :, 2] - (plane[:, None, 0] * vx[:, :, 0] + plane[:, None, 1] * vx[:, :, 1] + plane[:, None, 2])
     n_on = (d <= p.delta_h).sum(axis=1)
-    dtheta = np.degrees(np.arccos(np.clip((tri_normals[tri_ids[tj]] * normals[ci, k]).sum(axis=1), -1.0, 1.0)))
+    dtheta = angle_between(tri_normals[tri_ids[tj]], normals[ci, k])
     cost = np.where(n_on == 3, -np.log2(p_on(dtheta, p)), np.where(n_on > 0, -np.log2(p_buf(dtheta, p)), 0.0))
     dl = np.bincount(ci, cost, minlength=n_cand).astype(np.float64)
     n_offs = np.bincount(ci, (n_on == 0).astype(np.float64), minlength=n_cand).astype(np.float64)
