@@ -2,8 +2,9 @@
 
 Tiles of both versions are matched by key at one level. A tile changed when its
 category differs and the surface moved by more than the level of detection
-(LoD): the surfaces are rebuilt from each version's kept points and compared at
-the tile's nodes; LoD = 1.96 × √(σ₁² + σ₂²) from the two surveys' measured
+(LoD): the surfaces are rebuilt from each version's kept points (on the level's
+node lattice, holes bridged by straight lines, no triangulation) and compared at
+the tile's 3 × 3 nodes, only where the categories differ; LoD = 1.96 × √(σ₁² + σ₂²) from the two surveys' measured
 ground noise, at least 0.1 m. Changed tiles that touch form regions; each region
 is typed by the filters that match in one version and not the other.
 """
@@ -17,9 +18,10 @@ import shapely
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from ingest.ground.tin import surface_height, triangulate
+from ingest.ground.fill import fill_lines
 from queries.filters import builtin_filters
-from tdb.categories import all_categories
+from queries.relief import SUBGRID, node_lattice
+from tdb.categories import NO_DATA, all_categories
 from tdb.database import Database
 
 MIN_LOD = 0.10
@@ -51,14 +53,20 @@ def _surface(
     db: Database,
     version: str,
     level: int,
-    bbox: tuple[float, float, float, float] | None,
-    qx: NDArray[np.float64],
-    qy: NDArray[np.float64],
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
 ) -> NDArray[np.float64]:
+    """Heights of the version's rebuilt surface at the 3 × 3 nodes of each tile (NaN: no data).
+
+    Within a tile the kept nodes (the corners and the feature's nodes) stand for
+    planes between them; the nodes between are bridged by straight lines along the
+    tile's rows and columns, which is what a triangulation would give, without one.
+    """
+    bbox = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
     x, y, z, _ = db.points(version, level=level, bbox=bbox)
-    if len(x) < 3:
-        return np.full(len(qx), np.nan)
-    return surface_height(triangulate(np.column_stack([x, y])), z, np.column_stack([qx, qy]))[0]
+    nodes = fill_lines(node_lattice(x, y, z, level).tile_nodes(xg, yg))
+    mid = (SUBGRID - 1) // 2
+    return np.asarray(nodes[:, ::mid, ::mid].reshape(len(xg), 9), np.float64)
 
 
 def detect(
@@ -79,16 +87,17 @@ def detect(
     if len(ia) == 0:
         return []
     xg, yg, c1, c2 = xa[ia], ya[ia], ca[ia], cb[ib]
-    qx, qy = tile_nodes(xg, yg, level)
-    za = _surface(db, before, level, bbox, qx, qy).reshape(len(xg), 9)
-    zb = _surface(db, after, level, bbox, qx, qy).reshape(len(xg), 9)
-    dz = zb - za
+    # Only tiles whose category differs can change: the surfaces are rebuilt around them alone.
+    differ = np.flatnonzero((c1 != c2) & (c1 != NO_DATA) & (c2 != NO_DATA))
+    if len(differ) == 0:
+        return []
+    xg, yg, c1, c2 = xg[differ], yg[differ], c1[differ], c2[differ]
+    dz = _surface(db, after, level, xg, yg) - _surface(db, before, level, xg, yg)
     lod = level_of_detection(db, before, after)
     # A tile moved when at least three of its nine nodes moved beyond the LoD: one node
     # alone is often an interpolation difference between the two sets of kept points.
     with np.errstate(invalid="ignore"):
-        big = (np.abs(dz) > lod).sum(axis=1) >= 3
-    changed = (c1 != c2) & big & (c1 != 255) & (c2 != 255)
+        changed = (np.abs(dz) > lod).sum(axis=1) >= 3
     if not changed.any():
         return []
     # Regions: changed tiles touching (8-neighbours) on the tile lattice.

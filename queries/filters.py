@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass
+from functools import cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -36,6 +37,18 @@ class Filter:
     description: str = ""
     join: str = "lines"
     min_measure: float = 0.0
+    gap: int = 0
+    min_elongation: float = 0.0
+
+
+@cache
+def _validator() -> Any:
+    import jsonschema
+
+    schema = _schema()
+    cls = jsonschema.validators.validator_for(schema)
+    cls.check_schema(schema)
+    return cls(schema)
 
 
 def _schema() -> dict[str, Any]:
@@ -53,13 +66,12 @@ def parse_filter(doc: dict[str, Any]) -> Filter:
     FilterError
         If the document does not follow ``schemas/filter.schema.json``.
     """
-    import jsonschema
+    from jsonschema.exceptions import best_match
 
-    try:
-        jsonschema.validate(doc, _schema())
-    except jsonschema.ValidationError as exc:
-        where = "/".join(map(str, exc.absolute_path)) or "filter"
-        raise FilterError(f"invalid filter ({where}): {exc.message}") from None
+    error = best_match(_validator().iter_errors(doc))
+    if error is not None:
+        where = "/".join(map(str, error.absolute_path)) or "filter"
+        raise FilterError(f"invalid filter ({where}): {error.message}")
     codes = frozenset(FEATURE_NAMES.index(f) for f in doc["features"])
     join = doc.get("join", "lines" if doc["linear"] else "touch")
     return Filter(
@@ -72,6 +84,8 @@ def parse_filter(doc: dict[str, Any]) -> Filter:
         doc.get("description", ""),
         join,
         float(doc.get("min_measure", 0.0)),
+        int(doc.get("gap", 0)),
+        float(doc.get("min_elongation", 0.0)),
     )
 
 
@@ -120,6 +134,12 @@ LINKS = {
 }
 
 
+def _touching(gap: int) -> dict[tuple[int, int], tuple[tuple[int, int], ...]]:
+    """Offsets (one of each ± pair) of the tiles within ``gap`` tiles of touching."""
+    r = gap + 1
+    return {(dx, dy): () for dx in range(0, r + 1) for dy in range(-r, r + 1) if dx > 0 or dy > 0}
+
+
 def components(
     xg: NDArray[np.int64], yg: NDArray[np.int64], code: NDArray[np.uint8], flt: Filter, level: int
 ) -> list[NDArray[np.intp]]:
@@ -132,8 +152,9 @@ def components(
     ends = _endpoints()
     index = {(int(x), int(y)): k for k, (x, y) in enumerate(zip(xg[sel], yg[sel]))}
     rows, cols = [], []
+    links = LINKS if flt.join == "lines" else _touching(flt.gap)
     for k, (x, y) in enumerate(zip(xg[sel], yg[sel])):
-        for (dx, dy), pairs in LINKS.items():
+        for (dx, dy), pairs in links.items():
             j = index.get((int(x) + dx * level, int(y) + dy * level))
             if j is None:
                 continue

@@ -4,11 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
-from numpy.typing import NDArray
 
+from queries.centreline import centreline, elongation
 from queries.filters import Filter, Match, builtin_filters, components, tile_lines
+from queries.relief import node_lattice, tile_relief
+from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import FilterError
+
+REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
+LINK_TILES = 3.0  # extreme nodes of touching tiles lie at most 2√2 tiles apart
+TILE_SHARE = 0.5  # a tile joins an object when its own relief reaches this share of min_measure
 
 
 def resolve(name_or_filter: str | Filter) -> Filter:
@@ -28,49 +34,49 @@ def find(
     level: int | None = None,
     bbox: tuple[float, float, float, float] | None = None,
 ) -> list[Match]:
-    """Objects matching a filter at ``level`` (default: the filter's own) inside ``bbox``."""
+    """Objects matching a filter at ``level`` (default: the filter's own) inside ``bbox``.
+
+    Tiles of the filter's features join an object only where they stand out of the
+    terrain on both sides (:func:`queries.relief.two_sided_relief`) by at least half
+    the filter's ``min_measure``; an object's measure is the median over its tiles.
+    """
     flt = resolve(name_or_filter)
     lv = level or flt.level
     xg, yg, code = db.tiles(version, level=lv, bbox=bbox)
-    groups = components(xg, yg, code, flt, lv)
-    if not groups:
+    feats = np.array([c.feature for c in all_categories()] + [-1] * (256 - len(all_categories())))
+    cand = np.flatnonzero(np.isin(feats[code], list(flt.features)))
+    if len(cand) == 0:
         return []
+    reach = REACH_TILES * lv
+    grow = reach + lv
     px, py, pz, _ = db.points(
-        version, level=lv, bbox=None if bbox is None else (bbox[0] - lv, bbox[1] - lv, bbox[2] + lv, bbox[3] + lv)
+        version,
+        level=lv,
+        bbox=None if bbox is None else (bbox[0] - grow, bbox[1] - grow, bbox[2] + grow, bbox[3] + grow),
     )
-    heights = _height_lookup(px, py, pz, lv)
+    lattice = node_lattice(px, py, pz, lv)
+    ex, ey, relief = tile_relief(lattice, xg[cand], yg[cand], measure=flt.measure, reach=reach)
+    with np.errstate(invalid="ignore"):
+        ok = ~(relief < TILE_SHARE * flt.min_measure)  # NaN (terrain beside unknown) is kept
+    keep, relief, ex, ey = cand[ok], relief[ok], ex[ok], ey[ok]
+    xg, yg, code = xg[keep], yg[keep], code[keep]
+    groups = components(xg, yg, code, flt, lv)
     lines = tile_lines(xg, yg, code, lv) if flt.linear else []
     out = []
     for g in groups:
-        measure = float(np.nanmean([_relief(heights, int(xg[t]), int(yg[t]), lv, flt.measure) for t in g]))
+        measure = float(np.nanmedian(relief[g])) if np.isfinite(relief[g]).any() else float("nan")
         if measure < flt.min_measure:  # NaN (no relief measured) is kept
             continue
         if flt.linear:
-            parts = [lines[t] for t in g if lines[t] is not None]
-            geom = shapely.line_merge(shapely.union_all(parts))
+            step = flt.measure == "step"
+            geom = shapely.LineString() if step else centreline(ex[g], ey[g], link=(LINK_TILES + flt.gap) * lv)
+            if geom.is_empty:  # a step has no extreme line: follow the break lines
+                geom = shapely.line_merge(shapely.union_all([lines[t] for t in g if lines[t] is not None]))
             length = float(geom.length)
+            if elongation(ex[g], ey[g], level=lv) < flt.min_elongation:
+                continue
         else:
             geom = shapely.union_all([shapely.box(xg[t], yg[t], xg[t] + lv, yg[t] + lv) for t in g])
             length = 0.0
-        out.append(Match(flt.name, lv, g, geom, length, measure))
+        out.append(Match(flt.name, lv, keep[g], geom, length, measure))
     return out
-
-
-def _height_lookup(
-    x: NDArray[np.float64], y: NDArray[np.float64], z: NDArray[np.float64], level: int
-) -> dict[tuple[int, int], float]:
-    s = level / 4
-    return {(round(a / s), round(b / s)): float(c) for a, b, c in zip(x, y, z)}
-
-
-def _relief(heights: dict[tuple[int, int], float], xg: int, yg: int, level: int, measure: str) -> float:
-    """Depth (corners' mean − lowest kept node) or height (highest node − corners' mean) of one tile."""
-    s = level / 4
-    i0, j0 = round(xg / s), round(yg / s)
-    corners = [heights.get((i0 + a, j0 + b)) for a in (0, 4) for b in (0, 4)]
-    nodes = [heights.get((i0 + a, j0 + b)) for a in range(5) for b in range(5)]
-    cz = [v for v in corners if v is not None]
-    nz = [v for v in nodes if v is not None]
-    if not cz or not nz:
-        return float("nan")
-    return float(np.mean(cz) - min(nz)) if measure == "depth" else float(max(nz) - np.mean(cz))

@@ -46,12 +46,17 @@ def fill_lines(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
 
     A plane is filled exactly, like a TIN across the hole, but without a
     triangulation; short gaps dominate, so a narrow hole follows its near banks.
+    A stack of rasters (..., rows, cols) is filled raster by raster.
     """
     holes = np.isnan(raster)
     if not holes.any():
         return raster
-    v_row, g_row = _across_rows(raster)
-    v_col, g_col = (a.T for a in _across_rows(raster.T))
+    shape = raster.shape
+    v_row, g_row = (a.reshape(shape) for a in _across_rows(raster.reshape(-1, shape[-1])))
+    turned = np.swapaxes(raster, -1, -2)
+    v_col, g_col = (
+        np.swapaxes(a.reshape(turned.shape), -1, -2) for a in _across_rows(turned.reshape(-1, shape[-2]))
+    )
     # filled cells have gap 0 and are kept as they are; unbracketed ones have gap inf, weight 0
     w_row = 1.0 / np.maximum(g_row, 1.0) ** 2
     w_col = 1.0 / np.maximum(g_col, 1.0) ** 2

@@ -1,0 +1,156 @@
+"""How far a tile stands out of the terrain on both sides: the depth of a ditch, the height of a ridge.
+
+A tile's category says it holds a valley or a ridge, but a ditch rim, the top of
+an escarpment or the edge of an embankment hold the same shapes. What they lack is
+relief on both sides: the lowest (highest) stored node of a ditch (ridge) tile lies
+below (above) the terrain at ``reach`` metres on either side of it, in some
+direction; a rim or a step has higher ground on one side and lower on the other.
+
+The terrain beside a tile is read from the level's corner lattice (every tile
+corner is stored), bilinearly; the extreme node from all of the tile's stored nodes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+SUBGRID = 5  # nodes per tile side (must match ingest.pyramid.SUBGRID)
+_DIRS = np.array([[1.0, 0.0], [0.0, 1.0], [np.sqrt(0.5), np.sqrt(0.5)], [np.sqrt(0.5), -np.sqrt(0.5)]])
+
+
+@dataclass(frozen=True)
+class NodeLattice:
+    """Stored heights on the node lattice of one level; NaN where no node is stored."""
+
+    z: NDArray[np.float64]  # [j, i]: node (i0 + i, j0 + j)
+    i0: int
+    j0: int
+    spacing: float
+
+    def at(self, i: NDArray[np.int64], j: NDArray[np.int64]) -> NDArray[np.float64]:
+        i, j = np.broadcast_arrays(i, j)
+        ii, jj = i - self.i0, j - self.j0
+        ok = (ii >= 0) & (jj >= 0) & (ii < self.z.shape[1]) & (jj < self.z.shape[0])
+        out = np.full(np.shape(i), np.nan)
+        out[ok] = self.z[jj[ok], ii[ok]]
+        return out
+
+    def tile_nodes(self, xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NDArray[np.float64]:
+        """(T, SUBGRID, SUBGRID) stored heights of each tile (rows south to north), NaN where none."""
+        d = np.arange(SUBGRID)
+        ni = np.rint(np.asarray(xg) / self.spacing).astype(np.int64)[:, None, None] + d[None, None, :]
+        nj = np.rint(np.asarray(yg) / self.spacing).astype(np.int64)[:, None, None] + d[None, :, None]
+        return self.at(ni, nj)
+
+    def corners(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Bilinear height from the tile corners (every ``SUBGRID − 1``-th node) at (x, y)."""
+        step = SUBGRID - 1
+        size = self.spacing * step
+        u, v = x / size, y / size
+        ci, cj = np.floor(u).astype(np.int64), np.floor(v).astype(np.int64)
+        fu, fv = u - ci, v - cj
+        out = np.zeros(np.shape(x))
+        for di, dj in ((0, 0), (1, 0), (0, 1), (1, 1)):
+            w = (fu if di else 1 - fu) * (fv if dj else 1 - fv)
+            out += w * self.at((ci + di) * step, (cj + dj) * step)
+        return out
+
+
+def node_lattice(
+    x: NDArray[np.float64], y: NDArray[np.float64], z: NDArray[np.float64], level: int
+) -> NodeLattice:
+    """Place stored points on the node lattice of ``level`` (spacing level / 4)."""
+    s = level / (SUBGRID - 1)
+    i, j = np.rint(x / s).astype(np.int64), np.rint(y / s).astype(np.int64)
+    if len(i) == 0:
+        return NodeLattice(np.full((0, 0), np.nan), 0, 0, s)
+    i0, j0 = int(i.min()), int(j.min())
+    grid = np.full((int(j.max()) - j0 + 1, int(i.max()) - i0 + 1), np.nan)
+    grid[j - j0, i - i0] = z
+    return NodeLattice(grid, i0, j0, s)
+
+
+def extreme_nodes(
+    lattice: NodeLattice, xg: NDArray[np.int64], yg: NDArray[np.int64], *, measure: str, detrend: bool = False
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """x, y, z of each tile's lowest (``measure="depth"``) or highest stored node (z NaN: none stored).
+
+    With ``detrend``, lowest and highest relative to the surface through the tile's
+    corners (bilinear), so that on a slope the node picked is the one in the ditch,
+    not the tile's downhill corner. For ``measure="step"`` the tile's centre, with z NaN.
+    """
+    s = lattice.spacing
+    if measure == "step":
+        half = s * (SUBGRID - 1) / 2
+        cx = np.asarray(xg, np.float64) + half
+        cy = np.asarray(yg, np.float64) + half
+        return cx, cy, np.full(len(cx), np.nan)
+    di, dj = np.meshgrid(np.arange(SUBGRID), np.arange(SUBGRID))
+    ni = np.rint(np.asarray(xg) / s).astype(np.int64)[:, None] + di.ravel()[None, :]
+    nj = np.rint(np.asarray(yg) / s).astype(np.int64)[:, None] + dj.ravel()[None, :]
+    z = lattice.tile_nodes(xg, yg).reshape(len(ni), SUBGRID * SUBGRID)
+    u, v = di.ravel() / (SUBGRID - 1), dj.ravel() / (SUBGRID - 1)
+    last = SUBGRID - 1
+    corner = [z[:, k][:, None] for k in (0, last, last * SUBGRID, SUBGRID * SUBGRID - 1)]
+    plane = (1 - u) * (1 - v) * corner[0] + u * (1 - v) * corner[1] + (1 - u) * v * corner[2] + u * v * corner[3]
+    rel = z - np.where(np.isnan(plane), 0.0, plane) if detrend else z
+    score = np.where(np.isnan(z), -np.inf, (-1.0 if measure == "depth" else 1.0) * rel)
+    k = score.argmax(axis=1)
+    rows = np.arange(len(k))
+    return ni[rows, k] * s, nj[rows, k] * s, z[rows, k]
+
+
+def two_sided_relief(
+    lattice: NodeLattice,
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    z: NDArray[np.float64],
+    *,
+    measure: str,
+    reach: float,
+) -> NDArray[np.float64]:
+    """Depth (``measure="depth"``) or height of points (x, y, z) below / above the terrain on both sides.
+
+    For each of four directions the terrain is read at ``reach`` metres on either
+    side of the point; the relief is the smaller of the two differences, and the
+    point's relief the largest over the directions (NaN where z or the terrain
+    beside it is unknown). ``measure="step"`` (an embankment's side) is the
+    largest difference between the terrain on the two sides.
+    """
+    sign = -1.0 if measure == "depth" else 1.0
+    best = np.full(len(x), -np.inf)
+    for dx, dy in _DIRS:
+        a = lattice.corners(x + reach * dx, y + reach * dy)
+        b = lattice.corners(x - reach * dx, y - reach * dy)
+        with np.errstate(invalid="ignore"):
+            rel = np.abs(a - b) if measure == "step" else np.minimum(sign * (z - a), sign * (z - b))
+        best = np.fmax(best, rel)
+    best[~np.isfinite(best)] = np.nan
+    return best
+
+
+def tile_relief(
+    lattice: NodeLattice, xg: NDArray[np.int64], yg: NDArray[np.int64], *, measure: str, reach: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Each tile's extreme node (x, y) and its two-sided relief.
+
+    Two nodes compete: the plain extreme and the extreme against the tile's corner
+    surface. The first misses a ditch crossing a sloping tile, the second one running
+    through the tile's corners; the tile keeps whichever stands out more.
+    """
+    best: tuple[NDArray[np.float64], ...] | None = None
+    for detrend in (False, True):
+        x, y, z = extreme_nodes(lattice, xg, yg, measure=measure, detrend=detrend)
+        rel = two_sided_relief(lattice, x, y, z, measure=measure, reach=reach)
+        if best is None:
+            best = (x, y, rel)
+            continue
+        better = np.nan_to_num(rel, nan=-np.inf) > np.nan_to_num(best[2], nan=-np.inf)
+        best = tuple(np.where(better, new, old) for new, old in zip((x, y, rel), best))
+        if measure == "step":
+            break
+    assert best is not None
+    return best[0], best[1], best[2]

@@ -1,0 +1,100 @@
+"""Two-sided relief, centre lines and elongation of matched objects, on analytic surfaces."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from queries.centreline import centreline, elongation
+from queries.relief import node_lattice, tile_relief, two_sided_relief
+
+LEVEL = 2
+S = LEVEL / 4
+
+
+def lattice_of(fn, size=40.0):
+    """Every node of the level-2 lattice over [0, size]² stored, heights from ``fn``."""
+    g = np.arange(0, size + S / 2, S)
+    x, y = (a.ravel() for a in np.meshgrid(g, g))
+    return node_lattice(x, y, fn(x, y), LEVEL)
+
+
+def tiles(size=40.0):
+    g = np.arange(8, size - 8, LEVEL)
+    xg, yg = (a.ravel().astype(np.int64) for a in np.meshgrid(g, g))
+    return xg, yg
+
+
+def relief(fn, measure):
+    lat = lattice_of(fn)
+    xg, yg = tiles()
+    return (xg, yg, *tile_relief(lat, xg, yg, measure=measure, reach=2 * LEVEL)[2:])
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.floats(0.3, 2.0),
+    st.floats(-0.2, 0.2),
+    st.floats(-0.2, 0.2),
+    st.floats(16.0, 24.0),
+    st.sampled_from(["depth", "height"]),
+)
+def test_a_ditch_or_bank_on_a_slope_stands_out_by_its_depth(size, gx, gy, y0, measure):
+    # A 2 m wide V trough (or bank) along x at y0 on a tilted plane: its tiles measure
+    # close to its depth; tiles off it, on the plane, measure no relief at all.
+    sign = -1.0 if measure == "depth" else 1.0
+
+    def fn(x, y):
+        return 100 + gx * x + gy * y + sign * size * np.clip(1 - np.abs(y - y0) / 1.0, 0, None)
+
+    _, yg, rel = relief(fn, measure)
+    inside = (yg < y0) & (y0 < yg + LEVEL)  # the trough crosses the tile, not along its edge
+    far = np.abs(yg + LEVEL / 2 - y0) > 6
+    # The bottom lies between nodes unless y0 is on the lattice: the nearest node is at most
+    # half a node spacing up the 1 m half-width; the slope across 2 × reach moves the sides apart.
+    assert np.all(rel[inside] > size * (1 - S / 2) - 2 * LEVEL * abs(gy) - 1e-9)
+    assert np.all(rel[inside] < size + 1e-9)
+    assert np.all(rel[far] < 1e-9)  # a plane has no relief; on a tilted one it is negative
+
+
+@pytest.mark.parametrize("measure", ["depth", "height"])
+def test_a_step_has_no_depth_nor_height_but_a_step_measure(measure):
+    # A 1 m step (an embankment's side, a ditch rim at a terrace) along y = 20.
+    def fn(x, y):
+        return 50 + np.clip((y - 19) / 2, 0, 1) * 1.0
+
+    _, yg, rel = relief(fn, measure)
+    # The side terrain is read bilinearly from the 2 m corner lattice, which rounds the step's
+    # kinks: at most a quarter of the step shows as relief (a rim tile passes no 0.3 m filter).
+    assert np.nanmax(rel) <= 0.25 + 1e-9
+    _, yg, step = relief(fn, "step")
+    near = np.abs(yg + LEVEL / 2 - 20) <= 2
+    assert np.allclose(step[near], 1.0)
+
+
+def test_relief_is_unknown_without_terrain_beside():
+    lat = lattice_of(lambda x, y: x * 0.0)
+    rel = two_sided_relief(lat, np.array([1.0]), np.array([1.0]), np.array([-1.0]), measure="depth", reach=4)
+    # West and south of the lattice: no terrain there; the north-east diagonal pair is unknown too.
+    assert np.isnan(rel[0])
+
+
+def test_centreline_follows_a_chain_and_drops_spurs():
+    t = np.linspace(0, 60, 61)
+    x, y = t, 10 + 0.0 * t
+    # Rim nodes one metre off the line beside every fifth node: spurs at junctions.
+    rx, ry = t[::5][1:-1], np.full(len(t[::5]) - 2, 11.0)
+    line = centreline(np.r_[x, rx], np.r_[y, ry], link=6)
+    assert line.length == pytest.approx(60, abs=1e-6)
+    assert shapely.LineString([(0, 10), (60, 10)]).buffer(1e-6).contains(line)
+    assert centreline(np.array([1.0, 1.0]), np.array([2.0, 2.0]), link=6).is_empty
+
+
+def test_elongation_tells_a_line_from_a_blob():
+    t = np.linspace(0, 40, 21)
+    assert elongation(t, 0.5 * t, level=2) == pytest.approx(np.hypot(40, 20) / 2)
+    a = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    assert elongation(6 * np.cos(a), 6 * np.sin(a), level=2) < 1.2
