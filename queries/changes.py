@@ -20,8 +20,9 @@ from scipy import ndimage
 
 from ingest.ground.fill import fill_lines
 from queries.filters import builtin_filters
+from queries.match import REACH_TILES, match_tiles
 from queries.relief import SUBGRID, node_lattice
-from tdb.categories import NO_DATA, all_categories
+from tdb.categories import NO_DATA
 from tdb.database import Database
 
 MIN_LOD = 0.10
@@ -107,9 +108,7 @@ def detect(
     grid[j[changed], i[changed]] = True
     labels, n = ndimage.label(grid, structure=np.ones((3, 3)))
     tile_label = labels[j, i]
-    feats = np.array([c.feature for c in all_categories()] + [-1] * 141)
-    filters = builtin_filters()
-    out = []
+    regions = []
     for region in range(1, n + 1):
         members = np.flatnonzero(tile_label == region)
         if len(members) < min_tiles:
@@ -117,16 +116,25 @@ def detect(
         d = dz[members]
         moved = np.abs(d) > lod
         mean_dz = float(np.nanmean(d[moved])) if moved.any() else 0.0
-        kind = _kind(feats[c1[members]], feats[c2[members]], mean_dz, filters)
+        # Noise moves nodes both ways and its mean stays inside the LoD; a real change is coherent.
+        if abs(mean_dz) < lod:
+            continue
         geom = shapely.union_all(
             [shapely.box(x, y, x + level, y + level) for x, y in zip(xg[members], yg[members])]
         )
+        regions.append((members, mean_dz, geom))
+    if not regions:
+        return []
+    shapes = [g for _, _, g in regions]
+    found = {name: _matched(db, name, shapes) for name in (before, after)}
+    out = []
+    for (members, mean_dz, geom), was, now in zip(regions, found[before], found[after]):
         out.append(
             {
                 "type": "Feature",
                 "geometry": shapely.geometry.mapping(geom),
                 "properties": {
-                    "kind": kind,
+                    "kind": _kind(was, now, mean_dz),
                     "tiles": len(members),
                     "area": float(geom.area),
                     "dz": round(mean_dz, 3),
@@ -138,12 +146,41 @@ def detect(
     return out
 
 
-def _kind(before: NDArray[np.int64], after: NDArray[np.int64], mean_dz: float, filters: dict[str, Any]) -> str:
-    """The rule whose filter features gained most tiles (in the direction of the height change)."""
-    best, best_gain = "raised" if mean_dz > 0 else "lowered", 0
+def _matched(db: Database, version: str, regions: list[shapely.Geometry]) -> list[dict[str, float]]:
+    """Per region, the area (m²) of the tiles each rule's filter matches in ``version``.
+
+    The filters run on the tiles in and around the regions only (one tile beyond
+    them, so that an object cut by the region's edge still shows its form).
+    """
+    filters = builtin_filters()
+    out: list[dict[str, float]] = [{} for _ in regions]
+    for level in sorted({filters[name].level for name, *_ in RULES}):
+        near = shapely.union_all(regions).buffer(level)
+        x0, y0, x1, y1 = near.bounds
+        xg, yg, code = db.tiles(version, level=level, bbox=(x0, y0, x1, y1))
+        if len(xg) == 0:
+            continue
+        boxes = shapely.box(xg, yg, xg + level, yg + level)
+        among = shapely.intersects(near, boxes)
+        grow = REACH_TILES * level + level
+        px, py, pz, _ = db.points(version, level=level, bbox=(x0 - grow, y0 - grow, x1 + grow, y1 + grow))
+        lattice = node_lattice(px, py, pz, level)
+        for name, *_ in RULES:
+            flt = filters[name]
+            if flt.level != level:
+                continue
+            tiles = [t for m in match_tiles(xg, yg, code, lattice, flt, level=level, among=among) for t in m.tiles]
+            matched = shapely.union_all(boxes[tiles]) if tiles else shapely.Polygon()
+            for k, region in enumerate(regions):
+                out[k][name] = float(matched.intersection(region).area)
+    return out
+
+
+def _kind(before: dict[str, float], after: dict[str, float], mean_dz: float) -> str:
+    """The rule whose filter gained (or lost) most matched area, in the direction of the height change."""
+    best, best_gain = "raised" if mean_dz > 0 else "lowered", 0.0
     for name, sign, appeared, gone in RULES:
-        accepted = list(filters[name].features)
-        gain = int(np.isin(after, accepted).sum()) - int(np.isin(before, accepted).sum())
+        gain = after.get(name, 0.0) - before.get(name, 0.0)
         if gain > best_gain and np.sign(mean_dz) == sign:
             best, best_gain = appeared, gain
         if -gain > best_gain and np.sign(mean_dz) == -sign:

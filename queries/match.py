@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
+from numpy.typing import NDArray
 
 from queries.centreline import centreline, elongation
 from queries.filters import Filter, Match, builtin_filters, components, tile_lines
-from queries.relief import node_lattice, tile_relief
+from queries.relief import NodeLattice, node_lattice, tile_relief
 from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import FilterError
@@ -15,6 +16,7 @@ from tdb.errors import FilterError
 REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
 LINK_TILES = 3.0  # extreme nodes of touching tiles lie at most 2√2 tiles apart
 TILE_SHARE = 0.5  # a tile joins an object when its own relief reaches this share of min_measure
+FEATURES = np.array([c.feature for c in all_categories()] + [-1] * (256 - len(all_categories())))
 
 
 def resolve(name_or_filter: str | Filter) -> Filter:
@@ -43,19 +45,35 @@ def find(
     flt = resolve(name_or_filter)
     lv = level or flt.level
     xg, yg, code = db.tiles(version, level=lv, bbox=bbox)
-    feats = np.array([c.feature for c in all_categories()] + [-1] * (256 - len(all_categories())))
-    cand = np.flatnonzero(np.isin(feats[code], list(flt.features)))
-    if len(cand) == 0:
+    if not np.isin(FEATURES[code], list(flt.features)).any():
         return []
-    reach = REACH_TILES * lv
-    grow = reach + lv
+    grow = REACH_TILES * lv + lv
     px, py, pz, _ = db.points(
         version,
         level=lv,
         bbox=None if bbox is None else (bbox[0] - grow, bbox[1] - grow, bbox[2] + grow, bbox[3] + grow),
     )
-    lattice = node_lattice(px, py, pz, lv)
-    ex, ey, relief = tile_relief(lattice, xg[cand], yg[cand], measure=flt.measure, reach=reach)
+    return match_tiles(xg, yg, code, node_lattice(px, py, pz, lv), flt, level=lv)
+
+
+def match_tiles(
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    code: NDArray[np.uint8],
+    lattice: NodeLattice,
+    flt: Filter,
+    *,
+    level: int,
+    among: NDArray[np.bool_] | None = None,
+) -> list[Match]:
+    """The objects ``flt`` finds among the tiles (``among``: only these may join), with
+    ``lattice`` holding the stored points around them."""
+    lv = level
+    chosen = np.isin(FEATURES[code], list(flt.features))
+    cand = np.flatnonzero(chosen if among is None else chosen & among)
+    if len(cand) == 0:
+        return []
+    ex, ey, relief = tile_relief(lattice, xg[cand], yg[cand], measure=flt.measure, reach=REACH_TILES * lv)
     with np.errstate(invalid="ignore"):
         ok = ~(relief < TILE_SHARE * flt.min_measure)  # NaN (terrain beside unknown) is kept
     keep, relief, ex, ey = cand[ok], relief[ok], ex[ok], ey[ok]
@@ -68,13 +86,13 @@ def find(
         if measure < flt.min_measure:  # NaN (no relief measured) is kept
             continue
         if flt.linear:
+            if elongation(ex[g], ey[g], level=lv) < flt.min_elongation:
+                continue
             step = flt.measure == "step"
             geom = shapely.LineString() if step else centreline(ex[g], ey[g], link=(LINK_TILES + flt.gap) * lv)
             if geom.is_empty:  # a step has no extreme line: follow the break lines
                 geom = shapely.line_merge(shapely.union_all([lines[t] for t in g if lines[t] is not None]))
             length = float(geom.length)
-            if elongation(ex[g], ey[g], level=lv) < flt.min_elongation:
-                continue
         else:
             geom = shapely.union_all([shapely.box(xg[t], yg[t], xg[t] + lv, yg[t] + lv) for t in g])
             length = 0.0

@@ -10,11 +10,26 @@ from tdb.errors import DegenerateInputError
 
 
 def triangulate(xy: NDArray[np.float64]) -> Delaunay:
-    """Delaunay triangulation of plan positions, with a clear error on degenerate input."""
+    """Delaunay triangulation of plan positions, with a clear error on degenerate input.
+
+    The triangulation is built on coordinates relative to the points' lower-left
+    corner (kept as ``tri.origin``; :func:`locate` and :func:`barycentric` apply
+    it). Projected coordinates of the order of 10⁶ m cost Qhull precision: its
+    point location walks then fail and fall back to searching every triangle,
+    which made a 1 M point DTM take 90 s instead of 10.
+    """
+    xy = np.asarray(xy, np.float64)
+    origin = np.floor(xy.min(axis=0)) if len(xy) else np.zeros(2)
     try:
-        return Delaunay(xy)
+        tri = Delaunay(xy - origin)
     except (QhullError, ValueError) as exc:
         raise DegenerateInputError(f"cannot triangulate {len(xy)} points: {str(exc).splitlines()[0]}") from None
+    tri.origin = origin
+    return tri
+
+
+def _local(tri: Delaunay, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.asarray(xy, np.float64) - getattr(tri, "origin", 0.0)
 
 
 def morton_order(xy: NDArray[np.float64]) -> NDArray[np.intp]:
@@ -34,6 +49,7 @@ def locate(tri: Delaunay, xy: NDArray[np.float64]) -> NDArray[np.intp]:
     so spatially ordered queries take a few steps each instead of crossing the mesh."""
     if len(xy) == 0:
         return np.empty(0, np.intp)
+    xy = _local(tri, xy)
     order = morton_order(xy)
     out = np.empty(len(xy), np.intp)
     out[order] = tri.find_simplex(xy[order])
@@ -43,7 +59,7 @@ def locate(tri: Delaunay, xy: NDArray[np.float64]) -> NDArray[np.intp]:
 def barycentric(tri: Delaunay, simplex: NDArray[np.intp], xy: NDArray[np.float64]) -> NDArray[np.float64]:
     """Barycentric coordinates (M, 3) of ``xy`` in the given simplices of ``tri``."""
     t = tri.transform[simplex]
-    b = np.einsum("ijk,ik->ij", t[:, :2, :], xy - t[:, 2, :])
+    b = np.einsum("ijk,ik->ij", t[:, :2, :], _local(tri, xy) - t[:, 2, :])
     return np.column_stack([b, 1.0 - b.sum(axis=1)])
 
 
