@@ -25,6 +25,9 @@ from scipy.sparse.csgraph import connected_components
 from tdb.categories import FEATURE_NAMES, SUBPART_UV, all_categories
 from tdb.errors import FilterError
 
+# Feature of each uint8 code (-1 for codes that are no category: no data, absent).
+FEATURES = np.array([c.feature for c in all_categories()] + [-1] * (256 - len(all_categories())))
+
 
 @dataclass(frozen=True)
 class Filter:
@@ -144,9 +147,7 @@ def components(
     xg: NDArray[np.int64], yg: NDArray[np.int64], code: NDArray[np.uint8], flt: Filter, level: int
 ) -> list[NDArray[np.intp]]:
     """Groups of tile indices forming one object under ``flt``."""
-    cats = all_categories()
-    feats = np.array([c.feature for c in cats] + [-1] * (256 - len(cats)))
-    sel = np.flatnonzero(np.isin(feats[code], list(flt.features)))
+    sel = np.flatnonzero(np.isin(FEATURES[code], list(flt.features)))
     if len(sel) == 0:
         return []
     ends = _endpoints()

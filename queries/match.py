@@ -7,16 +7,14 @@ import shapely
 from numpy.typing import NDArray
 
 from queries.centreline import centreline, elongation
-from queries.filters import Filter, Match, builtin_filters, components, tile_lines
+from queries.filters import FEATURES, Filter, Match, builtin_filters, components, tile_lines
 from queries.relief import NodeLattice, node_lattice, tile_relief
-from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import FilterError
 
 REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
 LINK_TILES = 3.0  # extreme nodes of touching tiles lie at most 2√2 tiles apart
 TILE_SHARE = 0.5  # a tile joins an object when its own relief reaches this share of min_measure
-FEATURES = np.array([c.feature for c in all_categories()] + [-1] * (256 - len(all_categories())))
 
 
 def resolve(name_or_filter: str | Filter) -> Filter:
