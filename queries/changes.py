@@ -125,8 +125,8 @@ def detect(
         regions.append((members, mean_dz, geom))
     if not regions:
         return []
-    shapes = [g for _, _, g in regions]
-    found = {name: _matched(db, name, shapes) for name in (before, after)}
+    groups = [m for m, _, _ in regions]
+    found = {name: _matched(db, name, xg, yg, groups, level) for name in (before, after)}
     out = []
     for (members, mean_dz, geom), was, now in zip(regions, found[before], found[after]):
         out.append(
@@ -146,33 +146,72 @@ def detect(
     return out
 
 
-def _matched(db: Database, version: str, regions: list[shapely.Geometry]) -> list[dict[str, float]]:
-    """Per region, the area (m²) of the tiles each rule's filter matches in ``version``.
+def _key(kx: NDArray[np.int64], ky: NDArray[np.int64]) -> NDArray[np.int64]:
+    """One integer per tile (or node) key pair, for set operations."""
+    return np.asarray(kx, np.int64) * 4_000_000_000 + np.asarray(ky, np.int64)
+
+
+def _split(
+    kx: NDArray[np.int64], ky: NDArray[np.int64], factor: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Keys of the factor × factor finer tiles making up each tile, tile by tile."""
+    d = np.arange(factor)
+    shape = (len(kx), factor, factor)
+    fx = np.broadcast_to(kx[:, None, None] * factor + d[None, None, :], shape)
+    fy = np.broadcast_to(ky[:, None, None] * factor + d[None, :, None], shape)
+    return fx.ravel(), fy.ravel()
+
+
+def _matched(
+    db: Database,
+    version: str,
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    regions: list[NDArray[np.intp]],
+    level: int,
+) -> list[dict[str, float]]:
+    """Per region (indices into the ``level`` tiles ``xg``, ``yg``), the area (m²) of its
+    tiles that each rule's filter matches in ``version``.
 
     The filters run on the tiles in and around the regions only (one tile beyond
-    them, so that an object cut by the region's edge still shows its form).
+    them, so that an object cut by the region's edge still shows its form). All
+    geometry is done on integer tile keys: the tiles of two levels nest exactly.
     """
     filters = builtin_filters()
+    members = np.concatenate(regions)
+    owner = np.repeat(np.arange(len(regions)), [len(r) for r in regions])
     out: list[dict[str, float]] = [{} for _ in regions]
-    for level in sorted({filters[name].level for name, *_ in RULES}):
-        near = shapely.union_all(regions).buffer(level)
-        x0, y0, x1, y1 = near.bounds
-        xg, yg, code = db.tiles(version, level=level, bbox=(x0, y0, x1, y1))
-        if len(xg) == 0:
+    for lv in sorted({filters[name].level for name, *_ in RULES}):
+        kx = np.unique(_key(xg[members] // lv, yg[members] // lv))
+        cx, cy = kx // 4_000_000_000, kx % 4_000_000_000
+        ring = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)])
+        near = np.unique(_key((cx[:, None] + ring[:, 0]).ravel(), (cy[:, None] + ring[:, 1]).ravel()))
+        nx, ny = near // 4_000_000_000, near % 4_000_000_000
+        bbox = (float(nx.min() * lv), float(ny.min() * lv), float((nx.max() + 1) * lv), float((ny.max() + 1) * lv))
+        txg, tyg, code = db.tiles(version, level=lv, bbox=bbox)
+        if len(txg) == 0:
             continue
-        boxes = shapely.box(xg, yg, xg + level, yg + level)
-        among = shapely.intersects(near, boxes)
-        grow = REACH_TILES * level + level
-        px, py, pz, _ = db.points(version, level=level, bbox=(x0 - grow, y0 - grow, x1 + grow, y1 + grow))
-        lattice = node_lattice(px, py, pz, level)
+        among = np.isin(_key(txg // lv, tyg // lv), near)
+        grow = REACH_TILES * lv + lv
+        px, py, pz, _ = db.points(
+            version, level=lv, bbox=(bbox[0] - grow, bbox[1] - grow, bbox[2] + grow, bbox[3] + grow)
+        )
+        lattice = node_lattice(px, py, pz, lv)
+        # Regions and matches meet on the finer of the two tile lattices.
+        fine = min(lv, level)
+        rx, ry = _split(xg[members] // level, yg[members] // level, level // fine)
+        region_owner = np.repeat(owner, (level // fine) ** 2)
         for name, *_ in RULES:
             flt = filters[name]
-            if flt.level != level:
+            if flt.level != lv:
                 continue
-            tiles = [t for m in match_tiles(xg, yg, code, lattice, flt, level=level, among=among) for t in m.tiles]
-            matched = shapely.union_all(boxes[tiles]) if tiles else shapely.Polygon()
-            for k, region in enumerate(regions):
-                out[k][name] = float(matched.intersection(region).area)
+            found = match_tiles(txg, tyg, code, lattice, flt, level=lv, among=among)
+            tiles = np.concatenate([m.tiles for m in found]) if found else np.zeros(0, np.intp)
+            mx, my = _split(txg[tiles] // lv, tyg[tiles] // lv, lv // fine)
+            inside = np.isin(_key(rx, ry), _key(mx, my))
+            area = np.bincount(region_owner[inside], minlength=len(regions)) * float(fine * fine)
+            for k in range(len(regions)):
+                out[k][name] = float(area[k])
     return out
 
 

@@ -38,9 +38,27 @@ class Raster:
         return self.x0 + (np.arange(cols) + 0.5) * self.cell, self.y1 - (np.arange(rows) + 0.5) * self.cell
 
     def sample(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Bilinear value at points; NaN outside or next to no-data."""
-        from scipy import ndimage
+        """Bilinear value at points; NaN outside or next to no-data.
 
-        fc = (np.asarray(x) - self.x0) / self.cell - 0.5
-        fr = (self.y1 - np.asarray(y)) / self.cell - 0.5
-        return ndimage.map_coordinates(self.data, [fr, fc], order=1, mode="constant", cval=np.nan)
+        A neighbour with zero weight does not count, so a point on a post (or on the
+        line between two posts) keeps its value beside a hole: 0 × NaN would be NaN.
+        """
+        fc = self._snap((np.asarray(x, float) - self.x0) / self.cell - 0.5)
+        fr = self._snap((self.y1 - np.asarray(y, float)) / self.cell - 0.5)
+        rows, cols = self.shape
+        c0, r0 = np.floor(fc).astype(np.intp), np.floor(fr).astype(np.intp)
+        tc, tr = fc - c0, fr - r0
+        total = np.zeros(np.shape(fc))
+        inside = (fc >= 0) & (fr >= 0) & (fc <= cols - 1) & (fr <= rows - 1)
+        corners = ((0, 0, (1 - tr) * (1 - tc)), (0, 1, (1 - tr) * tc), (1, 0, tr * (1 - tc)), (1, 1, tr * tc))
+        for dr, dc, w in corners:
+            rr, cc = np.clip(r0 + dr, 0, rows - 1), np.clip(c0 + dc, 0, cols - 1)
+            v = self.data[rr, cc]
+            total += np.where(w > 0, w * v, 0.0)
+        return np.where(inside, total, np.nan)
+
+    @staticmethod
+    def _snap(f: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Grid coordinates within round-off of a whole post are that post."""
+        r = np.round(f)
+        return np.where(np.abs(f - r) < 1e-6, r, f)
