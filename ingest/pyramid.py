@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from ingest.categorise import categorise
 from ingest.ground.tin import surface_height, triangulate
-from ingest.reduce import kept_nodes, level_bit
+from ingest.reduce import budget_for, kept_nodes, level_bit, paper_keep, refine
 from ingest.tiles import LEVELS, node_grid
 from tdb.categories import NO_DATA
 from tdb.raster import Raster
@@ -62,7 +62,11 @@ def build(
         tiles, ti, tj = tiles[some], ti[some], tj[some]
         codes = categorise(tiles, flat_threshold=flat_threshold, n=n)
         out[level] = LevelTiles(level, ti * level, tj * level, codes)
-        kept = kept_nodes(grid, codes, ti, tj, n=n, unit=unit)
+        if level == min(levels):
+            keep = refine(tiles, codes, ti, tj, n=n, budget=budget_for(grid, n=n), relief=flat_threshold)
+        else:
+            keep = paper_keep(tiles, codes, n=n)
+        kept = kept_nodes(grid, keep, ti, tj, n=n, unit=unit)
         keys.append(np.column_stack([kept.kx, kept.ky]))
         bits.append(np.full(len(kept.kx), level_bit(level), np.uint8))
     allkeys = np.vstack(keys)

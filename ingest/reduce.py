@@ -1,7 +1,11 @@
 """Data reduction: keep the tile corners and the sub-grid nodes of each tile's feature.
 
-Kept nodes of all levels are merged into one set of points; each carries a
-4-bit mask n of the levels that keep it (bit 0: 2 m … bit 3: 16 m).
+At the finest level the kept set is then refined against the dense model: the
+feature nodes are kept where they stand out of the surface the corners rebuild,
+and, tile by tile, the node the kept ones rebuild worst is added, largest errors
+first, until every node is within a tolerance or a budget of kept nodes is spent
+(:func:`refine`). Kept nodes of all levels are merged into one set of points;
+each carries a 4-bit mask n of the levels that keep it (bit 0: 2 m … bit 3: 16 m).
 """
 
 from __future__ import annotations
@@ -11,8 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ingest.ground.fill import fill_lines
 from ingest.tiles import LEVELS, NodeGrid
 from tdb.categories import NO_DATA, feature_nodes
+
+TOLERANCE = 0.05  # m: a node rebuilt this close to the dense model needs no point of its own
+MAX_KEPT_SHARE = 0.098  # at most this share of the dense posts is kept at the finest level
+SCHEDULE = (2.0, 1.0, 0.6, 0.4, 0.3, 0.2, 0.15, 0.1, 0.07)  # m: error bands, worst first
 
 
 @dataclass(frozen=True)
@@ -27,21 +36,148 @@ def level_bit(level: int) -> int:
     return 1 << LEVELS.index(level)
 
 
-def kept_nodes(
-    grid: NodeGrid, codes: NDArray[np.uint8], ti: NDArray[np.int64], tj: NDArray[np.int64], *, n: int, unit: float
-) -> KeptNodes:
-    """Corners of every tile with data plus the feature nodes of its category.
+def corner_mask(n: int) -> NDArray[np.bool_]:
+    """(n*n,) True at the four corners of a tile's sub-grid."""
+    mask = np.zeros(n * n, bool)
+    mask[[0, n - 1, n * (n - 1), n * n - 1]] = True
+    return mask
 
-    ``unit`` is the finest node spacing; keys are node positions / unit.
-    """
+
+def paper_keep(tiles: NDArray[np.float64], codes: NDArray[np.uint8], *, n: int) -> NDArray[np.bool_]:
+    """(T, n*n) the paper's kept nodes: corners of every tile and the nodes of its category's
+    feature; a tile with holes (no category) keeps its corners that have data."""
+    keep = np.broadcast_to(corner_mask(n), tiles.shape).copy()
     ok = codes != NO_DATA
-    keep = np.zeros((int(ok.sum()), n * n), bool)
-    keep[:, [0, n - 1, n * (n - 1), n * n - 1]] = True
-    keep |= feature_nodes(n)[codes[ok]]
+    keep[ok] |= feature_nodes(n)[codes[ok]]
+    return keep & ~np.isnan(tiles)
+
+
+def rebuild_error(tiles: NDArray[np.float64], keep: NDArray[np.bool_], *, n: int) -> NDArray[np.float64]:
+    """|rebuilt − dense| at every node with data.
+
+    The surface is rebuilt from the kept nodes by straight lines along each tile's
+    rows and columns (edges first, then the interior); a node no line reaches (a
+    tile cut by a hole) takes the mean of the tile's kept nodes, and a tile with no
+    kept node has error inf, so that it is given one first.
+    """
+    z = np.where(keep, tiles, np.nan)
+    rebuilt = fill_lines(z.reshape(-1, n, n), passes=2).reshape(tiles.shape)
+    with np.errstate(invalid="ignore"):
+        mean = np.nanmean(z, axis=1, keepdims=True)  # NaN where nothing is kept: RuntimeWarning
+    rebuilt = np.where(np.isnan(rebuilt), mean, rebuilt)
+    err = np.abs(rebuilt - tiles)
+    return np.where(np.isnan(tiles), 0.0, np.where(np.isnan(rebuilt), np.inf, err))
+
+
+def refine(
+    tiles: NDArray[np.float64],
+    codes: NDArray[np.uint8],
+    ti: NDArray[np.int64],
+    tj: NDArray[np.int64],
+    *,
+    n: int,
+    budget: int,
+    relief: float,
+    tolerance: float = TOLERANCE,
+) -> NDArray[np.bool_]:
+    """(T, n*n) kept nodes: corners, the feature nodes that stand out, then the worst-rebuilt node
+    of each tile, band by band (:data:`SCHEDULE`), while the budget lasts.
+
+    Parameters
+    ----------
+    tiles : (T, n*n) dense heights on each tile's sub-grid; NaN = no data.
+    codes : (T,) category codes.
+    ti, tj : tile indices (neighbouring tiles share their edge nodes).
+    budget : how many nodes beyond the corners may be kept (see :func:`budget_for`).
+    relief : m; a feature node is kept first where the corners miss it by more (the flat
+        threshold: less is not a form).
+    tolerance : m; nodes rebuilt within it are not added.
+    """
+    valid = ~np.isnan(tiles)
+    keep = np.broadcast_to(corner_mask(n), tiles.shape) & valid
+    err = rebuild_error(tiles, keep, n=n)
+    nb = _neighbours(ti, tj)
+    # The category's feature nodes first, where the corners alone miss their relief.
+    ok = codes != NO_DATA
+    feature = np.zeros_like(keep)
+    feature[ok] = feature_nodes(n)[codes[ok]]
+    t, node = np.nonzero(feature & (err > max(relief, tolerance)) & valid)
+    added, rows = _add(keep, t, node, err[t, node], budget, nb, n)
+    budget -= added
+    err[rows] = rebuild_error(tiles[rows], keep[rows], n=n)
+    for band in [b for b in SCHEDULE if b > tolerance] + [tolerance]:
+        while budget > 0:
+            worst = err.argmax(axis=1)
+            e = err[np.arange(len(err)), worst]
+            t = np.flatnonzero(e > band)
+            if len(t) == 0:
+                break
+            added, rows = _add(keep, t, worst[t], e[t], budget, nb, n)
+            budget -= added
+            err[rows] = rebuild_error(tiles[rows], keep[rows], n=n)
+    return keep
+
+
+def _neighbours(ti: NDArray[np.int64], tj: NDArray[np.int64]) -> NDArray[np.intp]:
+    """(T, 4) index of each tile's east, north, west and south neighbour; −1 where none."""
+    key = ti.astype(np.int64) * 4_000_000_000 + tj
+    order = np.argsort(key)
+    out = np.full((len(ti), 4), -1, np.intp)
+    for k, (di, dj) in enumerate(((1, 0), (0, 1), (-1, 0), (0, -1))):
+        want = (ti + di).astype(np.int64) * 4_000_000_000 + (tj + dj)
+        pos = np.clip(np.searchsorted(key, want, sorter=order), 0, len(key) - 1)
+        hit = key[order[pos]] == want
+        out[hit, k] = order[pos[hit]]
+    return out
+
+
+def _add(
+    keep: NDArray[np.bool_],
+    t: NDArray[np.intp],
+    node: NDArray[np.intp],
+    err: NDArray[np.float64],
+    budget: int,
+    nb: NDArray[np.intp],
+    n: int,
+) -> tuple[int, NDArray[np.intp]]:
+    """Keep nodes (t, node), the largest errors first, at most ``budget``, and the same
+    nodes in the neighbour sharing them. Returns how many were kept and the tiles touched."""
+    if budget <= 0 or len(t) == 0:
+        return 0, np.zeros(0, np.intp)
+    if len(t) > budget:
+        top = np.argsort(-err, kind="stable")[:budget]
+        t, node = t[top], node[top]
+    keep[t, node] = True
+    r, c = node // n, node % n
+    touched = [t]
+    for k, on_edge, partner in (
+        (0, c == n - 1, r * n),  # east edge -> west edge of the east tile
+        (1, r == n - 1, c),  # north edge -> south edge of the north tile
+        (2, c == 0, r * n + n - 1),
+        (3, r == 0, (n - 1) * n + c),
+    ):
+        other = nb[t, k]
+        share = on_edge & (other >= 0)
+        keep[other[share], partner[share]] = True
+        touched.append(other[share])
+    return len(t), np.unique(np.concatenate(touched))
+
+
+def budget_for(grid: NodeGrid, *, n: int, max_share: float = MAX_KEPT_SHARE) -> int:
+    """Nodes :func:`refine` may add: ``max_share`` of the grid's nodes with data, less its corners."""
+    valid = ~np.isnan(grid.z)
+    return int(max_share * valid.sum()) - int(valid[:: n - 1, :: n - 1].sum())
+
+
+def kept_nodes(
+    grid: NodeGrid, keep: NDArray[np.bool_], ti: NDArray[np.int64], tj: NDArray[np.int64], *, n: int, unit: float
+) -> KeptNodes:
+    """Unique positions of the kept nodes (T, n*n) of tiles (ti, tj), in units of ``unit``,
+    the finest node spacing."""
     t_idx, node = np.nonzero(keep)
     ratio = round(grid.spacing / unit)
     step = n - 1
-    kx = (ti[ok][t_idx] * step + node % n) * ratio
-    ky = (tj[ok][t_idx] * step + node // n) * ratio
+    kx = (ti[t_idx] * step + node % n) * ratio
+    ky = (tj[t_idx] * step + node // n) * ratio
     both = np.unique(np.column_stack([kx, ky]), axis=0)
     return KeptNodes(both[:, 0], both[:, 1])

@@ -11,6 +11,7 @@ is typed by the filters that match in one version and not the other.
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -50,24 +51,30 @@ def tile_nodes(xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> tupl
     return ((xg[:, None] + level * u.ravel()[None, :]).ravel(), (yg[:, None] + level * v.ravel()[None, :]).ravel())
 
 
-def _surface(
+def _nodes(
     db: Database,
     version: str,
     level: int,
     xg: NDArray[np.int64],
     yg: NDArray[np.int64],
 ) -> NDArray[np.float64]:
-    """Heights of the version's rebuilt surface at the 3 × 3 nodes of each tile (NaN: no data).
-
-    Within a tile the kept nodes (the corners and the feature's nodes) stand for
-    planes between them; the nodes between are bridged by straight lines along the
-    tile's rows and columns, which is what a triangulation would give, without one.
-    """
+    """(T, SUBGRID, SUBGRID) stored heights of each tile's nodes in ``version`` (NaN: none stored)."""
     bbox = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
     x, y, z, _ = db.points(version, level=level, bbox=bbox)
-    nodes = fill_lines(node_lattice(x, y, z, level).tile_nodes(xg, yg))
+    return node_lattice(x, y, z, level).tile_nodes(xg, yg)
+
+
+def _surface(nodes: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Heights of the rebuilt surface at the 3 × 3 nodes of each tile (NaN: no data).
+
+    Within a tile the kept nodes (the corners, the feature's nodes and those the
+    reduction added) stand for planes between them; the nodes between are bridged by
+    straight lines along the tile's rows and columns, edges first, then the interior:
+    close to what a triangulation would give, without one.
+    """
+    filled = fill_lines(nodes, passes=2)
     mid = (SUBGRID - 1) // 2
-    return np.asarray(nodes[:, ::mid, ::mid].reshape(len(xg), 9), np.float64)
+    return np.asarray(filled[:, ::mid, ::mid].reshape(len(nodes), 9), np.float64)
 
 
 def detect(
@@ -93,8 +100,20 @@ def detect(
     if len(differ) == 0:
         return []
     xg, yg, c1, c2 = xg[differ], yg[differ], c1[differ], c2[differ]
-    dz = _surface(db, after, level, xg, yg) - _surface(db, before, level, xg, yg)
     lod = level_of_detection(db, before, after)
+    na, nb = _nodes(db, before, level, xg, yg), _nodes(db, after, level, xg, yg)
+    # Lines between stored nodes stay within their range, so a tile whose two ranges
+    # lie within the LoD of each other cannot move beyond it: skip its surfaces.
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a tile with no stored node
+        lo_a, hi_a = np.nanmin(na, axis=(1, 2)), np.nanmax(na, axis=(1, 2))
+        lo_b, hi_b = np.nanmin(nb, axis=(1, 2)), np.nanmax(nb, axis=(1, 2))
+        may = np.maximum(hi_b - lo_a, hi_a - lo_b) > lod
+    keep = np.flatnonzero(may)
+    if len(keep) == 0:
+        return []
+    xg, yg, c1, c2 = xg[keep], yg[keep], c1[keep], c2[keep]
+    dz = _surface(nb[keep]) - _surface(na[keep])
     # A tile moved when at least three of its nine nodes moved beyond the LoD: one node
     # alone is often an interpolation difference between the two sets of kept points.
     with np.errstate(invalid="ignore"):

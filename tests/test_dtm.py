@@ -70,3 +70,15 @@ def test_geotiff_round_trip(tmp_path):
 def test_bad_resolution():
     with pytest.raises(InputError):
         dense_model(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float), resolution=0)
+
+
+def test_sampling_on_a_post_beside_a_hole_keeps_its_value():
+    from tdb.raster import Raster
+
+    data = np.array([[1.0, np.nan], [3.0, 4.0]])
+    r = Raster(data, 0.0, 2.0, 1.0)
+    # Post centres are at 0.5 and 1.5; (0.5, 1.5) is the post holding 1.0.
+    assert r.sample(np.array([0.5, 0.5, 1.5]), np.array([1.5, 0.5, 0.5])).tolist() == [1.0, 3.0, 4.0]
+    assert np.isnan(r.sample(np.array([1.0]), np.array([1.5]))[0])  # halfway to the hole
+    assert r.sample(np.array([1.0]), np.array([0.5]))[0] == 3.5
+    assert np.isnan(r.sample(np.array([-0.1]), np.array([0.5]))[0])  # outside

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from ingest.ground.fill import fill_linear, fill_nearest
+from ingest.ground.fill import fill_linear, fill_lines, fill_nearest
 from ingest.ground.grids import CellSort, Grid, corner_heights
 from tdb.errors import InputError
 
@@ -37,6 +37,17 @@ def test_fill_linear_reproduces_a_plane(seed, a, b, holes):
     inside = row_ok | col_ok
     assert not np.isnan(filled).any()
     np.testing.assert_allclose(filled[inside], plane[inside], atol=1e-9)
+
+
+@settings(max_examples=30, deadline=None)
+@given(a=st.floats(-3, 3), b=st.floats(-3, 3), c=st.floats(-100, 100))
+def test_two_passes_fill_tiles_known_at_their_corners_with_the_plane(a, b, c):
+    i, j = np.mgrid[0:5, 0:5]
+    plane = np.broadcast_to(c + a * j + b * i, (3, 5, 5)).copy()
+    tiles = np.full_like(plane, np.nan)
+    tiles[:, [0, 0, 4, 4], [0, 4, 0, 4]] = plane[:, [0, 0, 4, 4], [0, 4, 0, 4]]
+    assert np.isnan(fill_lines(tiles)[:, 1:4, 1:4]).all()  # one pass reaches the edges only
+    np.testing.assert_allclose(fill_lines(tiles, passes=2), plane, atol=1e-9)
 
 
 def test_fill_nearest_takes_the_nearest_value_and_refuses_an_empty_raster():

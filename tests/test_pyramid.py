@@ -76,3 +76,55 @@ def test_level_masks():
     # 16 m corners are corners of every level.
     c16 = (np.mod(model.x, 16) == 0) & (np.mod(model.y, 16) == 0)
     assert (model.n[c16] == 15).all()
+
+
+def _tiles(f, count=6, n=5):
+    """(T, n*n) sub-grids of ``count`` × ``count`` 2 m tiles of the surface f, and their indices."""
+    ti, tj = np.meshgrid(np.arange(count), np.arange(count))
+    ti, tj = ti.ravel(), tj.ravel()
+    u = np.arange(n) * 2.0 / (n - 1)
+    x = ti[:, None, None] * 2.0 + u[None, None, :]
+    y = tj[:, None, None] * 2.0 + u[None, :, None]
+    return f(x, y).reshape(len(ti), n * n), ti, tj
+
+
+def test_refine_reaches_the_tolerance_when_the_budget_allows():
+    from ingest.reduce import TOLERANCE, rebuild_error, refine
+
+    tiles, ti, tj = _tiles(lambda x, y: 0.8 * np.sin(x / 1.3) * np.cos(y / 1.7))
+    codes = np.ones(len(tiles), np.uint8)
+    keep = refine(tiles, codes, ti, tj, n=5, budget=10_000, relief=0.1)
+    assert rebuild_error(tiles, keep, n=5).max() <= TOLERANCE
+    assert not keep.all()  # it stopped once within the tolerance
+
+
+def test_refine_spends_no_more_than_its_budget_largest_errors_first():
+    from ingest.reduce import corner_mask, rebuild_error, refine
+
+    # One sharp pit in an otherwise planar area: the budget goes to it.
+    def surface(x, y):
+        return 0.1 * x - 2.0 * np.exp(-((x - 5.0) ** 2 + (y - 5.0) ** 2) / 0.3)
+
+    tiles, ti, tj = _tiles(surface)
+    codes = np.ones(len(tiles), np.uint8)
+    corners = np.broadcast_to(corner_mask(5), tiles.shape)
+    for budget in (0, 1, 3):
+        keep = refine(tiles, codes, ti, tj, n=5, budget=budget, relief=0.1)
+        assert (keep & ~corners).sum() <= 2 * budget  # an edge node is kept by both its tiles
+        assert (keep & corners).sum() == corners.sum()
+    pit = np.flatnonzero((ti == 2) & (tj == 2))[0]  # the tile holding (5, 5)
+    before = rebuild_error(tiles, corners, n=5)[pit].max()
+    after = rebuild_error(tiles, refine(tiles, codes, ti, tj, n=5, budget=1, relief=0.1), n=5)[pit].max()
+    assert after < before / 2
+
+
+def test_a_kept_edge_node_is_kept_by_both_tiles_sharing_it():
+    from ingest.reduce import refine
+
+    # A step along x = 2 (the edge between tiles 0 and 1): only edge nodes can rebuild it.
+    tiles, ti, tj = _tiles(lambda x, y: np.where(np.abs(x - 2.0) < 0.1, 1.0, 0.0) * (y > 0.1) * (y < 1.9), count=2)
+    keep = refine(tiles, np.ones(len(tiles), np.uint8), ti, tj, n=5, budget=50, relief=0.1).reshape(-1, 5, 5)
+    west = np.flatnonzero((ti == 0) & (tj == 0))[0]
+    east = np.flatnonzero((ti == 1) & (tj == 0))[0]
+    assert keep[west, 1:4, 4].any()
+    assert (keep[west, :, 4] == keep[east, :, 0]).all()

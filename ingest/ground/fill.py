@@ -39,15 +39,19 @@ def _across_rows(raster: NDArray[np.floating[Any]]) -> tuple[NDArray[np.floating
     return np.where(bracketed, lv + t * (rv - lv), np.nan), np.where(bracketed, gap, np.inf)
 
 
-def fill_lines(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
+def fill_lines(raster: NDArray[np.floating[Any]], *, passes: int = 1) -> NDArray[np.floating[Any]]:
     """Fill NaN cells by straight lines across each gap along the row and the column,
     weighted by the inverse square of the gap length; cells neither line brackets
     (beyond the data) stay NaN.
 
     A plane is filled exactly, like a TIN across the hole, but without a
     triangulation; short gaps dominate, so a narrow hole follows its near banks.
-    A stack of rasters (..., rows, cols) is filled raster by raster.
+    A stack of rasters (..., rows, cols) is filled raster by raster. Each further
+    pass fills from the cells the last one filled: a tile known only at its corners
+    gets its edges in the first pass and its interior in the second.
     """
+    for _ in range(passes - 1):
+        raster = fill_lines(raster)
     holes = np.isnan(raster)
     if not holes.any():
         return raster
