@@ -22,7 +22,7 @@ from scipy import ndimage
 from ingest.ground.fill import fill_lines
 from queries.filters import builtin_filters
 from queries.match import REACH_TILES, match_tiles
-from queries.relief import SUBGRID, node_lattice
+from queries.relief import SUBGRID, NodeLattice, node_lattice
 from tdb.categories import NO_DATA
 from tdb.database import Database
 
@@ -51,17 +51,13 @@ def tile_nodes(xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> tupl
     return ((xg[:, None] + level * u.ravel()[None, :]).ravel(), (yg[:, None] + level * v.ravel()[None, :]).ravel())
 
 
-def _nodes(
-    db: Database,
-    version: str,
-    level: int,
-    xg: NDArray[np.int64],
-    yg: NDArray[np.int64],
-) -> NDArray[np.float64]:
-    """(T, SUBGRID, SUBGRID) stored heights of each tile's nodes in ``version`` (NaN: none stored)."""
-    bbox = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
+def _lattice(db: Database, version: str, level: int, xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NodeLattice:
+    """The version's stored points around the tiles, on the level's node lattice: far enough
+    beyond them for the filters' two-sided relief (read once, for surfaces and typing)."""
+    grow = REACH_TILES * level + 2 * level
+    bbox = (float(xg.min() - grow), float(yg.min() - grow), float(xg.max() + grow), float(yg.max() + grow))
     x, y, z, _ = db.points(version, level=level, bbox=bbox)
-    return node_lattice(x, y, z, level).tile_nodes(xg, yg)
+    return node_lattice(x, y, z, level)
 
 
 def _surface(nodes: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -101,7 +97,8 @@ def detect(
         return []
     xg, yg, c1, c2 = xg[differ], yg[differ], c1[differ], c2[differ]
     lod = level_of_detection(db, before, after)
-    na, nb = _nodes(db, before, level, xg, yg), _nodes(db, after, level, xg, yg)
+    lattices = {name: _lattice(db, name, level, xg, yg) for name in (before, after)}
+    na, nb = lattices[before].tile_nodes(xg, yg), lattices[after].tile_nodes(xg, yg)
     # Lines between stored nodes stay within their range, so a tile whose two ranges
     # lie within the LoD of each other cannot move beyond it: skip its surfaces.
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
@@ -145,7 +142,7 @@ def detect(
     if not regions:
         return []
     groups = [m for m, _, _ in regions]
-    found = {name: _matched(db, name, xg, yg, groups, level) for name in (before, after)}
+    found = {name: _matched(db, name, xg, yg, groups, level, lattices[name]) for name in (before, after)}
     out = []
     for (members, mean_dz, geom), was, now in zip(regions, found[before], found[after]):
         out.append(
@@ -188,6 +185,7 @@ def _matched(
     yg: NDArray[np.int64],
     regions: list[NDArray[np.intp]],
     level: int,
+    lattice: NodeLattice,
 ) -> list[dict[str, float]]:
     """Per region (indices into the ``level`` tiles ``xg``, ``yg``), the area (m²) of its
     tiles that each rule's filter matches in ``version``.
@@ -195,6 +193,7 @@ def _matched(
     The filters run on the tiles in and around the regions only (one tile beyond
     them, so that an object cut by the region's edge still shows its form). All
     geometry is done on integer tile keys: the tiles of two levels nest exactly.
+    ``lattice`` holds the version's points at ``level`` around the regions.
     """
     filters = builtin_filters()
     members = np.concatenate(regions)
@@ -211,11 +210,13 @@ def _matched(
         if len(txg) == 0:
             continue
         among = np.isin(_key(txg // lv, tyg // lv), near)
-        grow = REACH_TILES * lv + lv
-        px, py, pz, _ = db.points(
-            version, level=lv, bbox=(bbox[0] - grow, bbox[1] - grow, bbox[2] + grow, bbox[3] + grow)
-        )
-        lattice = node_lattice(px, py, pz, lv)
+        lat = lattice
+        if lv != level:
+            grow = REACH_TILES * lv + lv
+            px, py, pz, _ = db.points(
+                version, level=lv, bbox=(bbox[0] - grow, bbox[1] - grow, bbox[2] + grow, bbox[3] + grow)
+            )
+            lat = node_lattice(px, py, pz, lv)
         # Regions and matches meet on the finer of the two tile lattices.
         fine = min(lv, level)
         rx, ry = _split(xg[members] // level, yg[members] // level, level // fine)
@@ -224,7 +225,7 @@ def _matched(
             flt = filters[name]
             if flt.level != lv:
                 continue
-            found = match_tiles(txg, tyg, code, lattice, flt, level=lv, among=among)
+            found = match_tiles(txg, tyg, code, lat, flt, level=lv, among=among)
             tiles = np.concatenate([m.tiles for m in found]) if found else np.zeros(0, np.intp)
             mx, my = _split(txg[tiles] // lv, tyg[tiles] // lv, lv // fine)
             inside = np.isin(_key(rx, ry), _key(mx, my))
