@@ -99,7 +99,9 @@ def reduction_section(out: list[str]) -> None:
     out += [
         "## Reduction of the dense 0.5 m model (2 m level)",
         "",
-        "Default ground filter, kept points = tile corners + feature nodes. pydelatin gets the same dense model "
+        "Default ground filter, kept points = tile corners, the feature nodes that stand out by the flat "
+        "threshold, and the worst-rebuilt nodes within a 9.8 % budget (docs/categories.md). "
+        "pydelatin gets the same dense model "
         "and the same number of points; both rebuilt surfaces are compared with the dense model at every valid "
         f"post (`python -m benchmarks.reduction`). Machine: {_machine(doc)}.",
         "",
