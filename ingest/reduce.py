@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.ground.fill import fill_lines
-from ingest.tiles import LEVELS, NodeGrid
+from ingest.tiles import LEVELS, NodeGrid, tile_key
 from tdb.categories import NO_DATA, feature_nodes
 
 TOLERANCE = 0.05  # m: a node rebuilt this close to the dense model needs no point of its own
@@ -43,13 +43,18 @@ def corner_mask(n: int) -> NDArray[np.bool_]:
     return mask
 
 
+def category_nodes(codes: NDArray[np.uint8], *, n: int) -> NDArray[np.bool_]:
+    """(T, n*n) the nodes of each tile's feature; none for a tile with no category."""
+    out = np.zeros((len(codes), n * n), bool)
+    ok = codes != NO_DATA
+    out[ok] = feature_nodes(n)[codes[ok]]
+    return out
+
+
 def paper_keep(tiles: NDArray[np.float64], codes: NDArray[np.uint8], *, n: int) -> NDArray[np.bool_]:
     """(T, n*n) the paper's kept nodes: corners of every tile and the nodes of its category's
     feature; a tile with holes (no category) keeps its corners that have data."""
-    keep = np.broadcast_to(corner_mask(n), tiles.shape).copy()
-    ok = codes != NO_DATA
-    keep[ok] |= feature_nodes(n)[codes[ok]]
-    return keep & ~np.isnan(tiles)
+    return (corner_mask(n) | category_nodes(codes, n=n)) & ~np.isnan(tiles)
 
 
 def rebuild_error(tiles: NDArray[np.float64], keep: NDArray[np.bool_], *, n: int) -> NDArray[np.float64]:
@@ -98,10 +103,7 @@ def refine(
     err = rebuild_error(tiles, keep, n=n)
     nb = _neighbours(ti, tj)
     # The category's feature nodes first, where the corners alone miss their relief.
-    ok = codes != NO_DATA
-    feature = np.zeros_like(keep)
-    feature[ok] = feature_nodes(n)[codes[ok]]
-    t, node = np.nonzero(feature & (err > max(relief, tolerance)) & valid)
+    t, node = np.nonzero(category_nodes(codes, n=n) & (err > max(relief, tolerance)))  # err is 0 without data
     added, rows = _add(keep, t, node, err[t, node], budget, nb, n)
     budget -= added
     err[rows] = rebuild_error(tiles[rows], keep[rows], n=n)
@@ -120,11 +122,11 @@ def refine(
 
 def _neighbours(ti: NDArray[np.int64], tj: NDArray[np.int64]) -> NDArray[np.intp]:
     """(T, 4) index of each tile's east, north, west and south neighbour; −1 where none."""
-    key = ti.astype(np.int64) * 4_000_000_000 + tj
+    key = tile_key(ti, tj)
     order = np.argsort(key)
     out = np.full((len(ti), 4), -1, np.intp)
     for k, (di, dj) in enumerate(((1, 0), (0, 1), (-1, 0), (0, -1))):
-        want = (ti + di).astype(np.int64) * 4_000_000_000 + (tj + dj)
+        want = tile_key(ti + di, tj + dj)
         pos = np.clip(np.searchsorted(key, want, sorter=order), 0, len(key) - 1)
         hit = key[order[pos]] == want
         out[hit, k] = order[pos[hit]]

@@ -19,6 +19,11 @@ from tdb.raster import Raster
 LEVELS = (2, 4, 8, 16)
 
 
+def tile_key(i: NDArray[np.integer], j: NDArray[np.integer]) -> NDArray[np.int64]:
+    """One int64 per integer pair (tile or node keys, negative ones too), for set operations."""
+    return np.asarray(i, np.int64) * (1 << 32) + (np.asarray(j, np.int64) & 0xFFFFFFFF)
+
+
 @dataclass(frozen=True)
 class NodeGrid:
     """Heights at nodes x = ix0·s + i·s, y = iy0·s + j·s (rows south to north); NaN = no data."""

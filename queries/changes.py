@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from ingest.ground.fill import fill_lines
+from ingest.tiles import tile_key
 from queries.filters import builtin_filters
 from queries.match import REACH_TILES, match_tiles
 from queries.relief import SUBGRID, NodeLattice, node_lattice
@@ -85,9 +86,7 @@ def detect(
     """Changed regions between ``before`` and ``after`` as GeoJSON feature dicts."""
     xa, ya, ca = db.tiles(before, level=level, bbox=bbox)
     xb, yb, cb = db.tiles(after, level=level, bbox=bbox)
-    key_a = xa.astype(np.int64) * 100_000_000 + ya
-    key_b = xb.astype(np.int64) * 100_000_000 + yb
-    _, ia, ib = np.intersect1d(key_a, key_b, return_indices=True)
+    _, ia, ib = np.intersect1d(tile_key(xa, ya), tile_key(xb, yb), return_indices=True)
     if len(ia) == 0:
         return []
     xg, yg, c1, c2 = xa[ia], ya[ia], ca[ia], cb[ib]
@@ -162,11 +161,6 @@ def detect(
     return out
 
 
-def _key(kx: NDArray[np.int64], ky: NDArray[np.int64]) -> NDArray[np.int64]:
-    """One integer per tile (or node) key pair, for set operations."""
-    return np.asarray(kx, np.int64) * 4_000_000_000 + np.asarray(ky, np.int64)
-
-
 def _split(
     kx: NDArray[np.int64], ky: NDArray[np.int64], factor: int
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -200,16 +194,15 @@ def _matched(
     owner = np.repeat(np.arange(len(regions)), [len(r) for r in regions])
     out: list[dict[str, float]] = [{} for _ in regions]
     for lv in sorted({filters[name].level for name, *_ in RULES}):
-        kx = np.unique(_key(xg[members] // lv, yg[members] // lv))
-        cx, cy = kx // 4_000_000_000, kx % 4_000_000_000
+        cx, cy = np.unique(np.column_stack([xg[members] // lv, yg[members] // lv]), axis=0).T
         ring = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)])
-        near = np.unique(_key((cx[:, None] + ring[:, 0]).ravel(), (cy[:, None] + ring[:, 1]).ravel()))
-        nx, ny = near // 4_000_000_000, near % 4_000_000_000
+        nx, ny = (cx[:, None] + ring[:, 0]).ravel(), (cy[:, None] + ring[:, 1]).ravel()
+        near = np.unique(tile_key(nx, ny))
         bbox = (float(nx.min() * lv), float(ny.min() * lv), float((nx.max() + 1) * lv), float((ny.max() + 1) * lv))
         txg, tyg, code = db.tiles(version, level=lv, bbox=bbox)
         if len(txg) == 0:
             continue
-        among = np.isin(_key(txg // lv, tyg // lv), near)
+        among = np.isin(tile_key(txg // lv, tyg // lv), near)
         lat = lattice
         if lv != level:
             grow = REACH_TILES * lv + lv
@@ -228,7 +221,7 @@ def _matched(
             found = match_tiles(txg, tyg, code, lat, flt, level=lv, among=among)
             tiles = np.concatenate([m.tiles for m in found]) if found else np.zeros(0, np.intp)
             mx, my = _split(txg[tiles] // lv, tyg[tiles] // lv, lv // fine)
-            inside = np.isin(_key(rx, ry), _key(mx, my))
+            inside = np.isin(tile_key(rx, ry), tile_key(mx, my))
             area = np.bincount(region_owner[inside], minlength=len(regions)) * float(fine * fine)
             for k in range(len(regions)):
                 out[k][name] = float(area[k])
