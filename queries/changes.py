@@ -19,7 +19,7 @@ import shapely
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from ingest.ground.fill import fill_lines
+from ingest.ground.fill import fill_lines_stack
 from ingest.tiles import tile_key
 from queries.filters import builtin_filters
 from queries.match import REACH_TILES, match_tiles
@@ -57,7 +57,7 @@ def _lattice(db: Database, version: str, level: int, xg: NDArray[np.int64], yg: 
     beyond them for the filters' two-sided relief (read once, for surfaces and typing)."""
     grow = REACH_TILES * level + 2 * level
     bbox = (float(xg.min() - grow), float(yg.min() - grow), float(xg.max() + grow), float(yg.max() + grow))
-    x, y, z, _ = db.points(version, level=level, bbox=bbox)
+    x, y, z, _ = db.points(version, level=level, bbox=bbox, ordered=False)
     return node_lattice(x, y, z, level)
 
 
@@ -69,9 +69,11 @@ def _surface(nodes: NDArray[np.float64]) -> NDArray[np.float64]:
     straight lines along the tile's rows and columns, edges first, then the interior:
     close to what a triangulation would give, without one.
     """
-    filled = fill_lines(nodes, passes=2)
     mid = (SUBGRID - 1) // 2
-    return np.asarray(filled[:, ::mid, ::mid].reshape(len(nodes), 9), np.float64)
+    cells = np.ravel_multi_index(
+        np.meshgrid(np.arange(0, SUBGRID, mid), np.arange(0, SUBGRID, mid), indexing="ij"), (SUBGRID, SUBGRID)
+    )
+    return fill_lines_stack(nodes, passes=2, cells=cells.ravel())
 
 
 def detect(
@@ -84,8 +86,8 @@ def detect(
     min_tiles: int = 8,
 ) -> list[dict[str, Any]]:
     """Changed regions between ``before`` and ``after`` as GeoJSON feature dicts."""
-    xa, ya, ca = db.tiles(before, level=level, bbox=bbox)
-    xb, yb, cb = db.tiles(after, level=level, bbox=bbox)
+    xa, ya, ca = db.tiles(before, level=level, bbox=bbox, ordered=False)
+    xb, yb, cb = db.tiles(after, level=level, bbox=bbox, ordered=False)
     _, ia, ib = np.intersect1d(tile_key(xa, ya), tile_key(xb, yb), return_indices=True)
     if len(ia) == 0:
         return []
@@ -102,14 +104,16 @@ def detect(
     # lie within the LoD of each other cannot move beyond it: skip its surfaces.
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a tile with no stored node
-        lo_a, hi_a = np.nanmin(na, axis=(1, 2)), np.nanmax(na, axis=(1, 2))
-        lo_b, hi_b = np.nanmin(nb, axis=(1, 2)), np.nanmax(nb, axis=(1, 2))
+        flat_a, flat_b = na.reshape(len(na), -1), nb.reshape(len(nb), -1)
+        lo_a, hi_a = np.fmin.reduce(flat_a, axis=1), np.fmax.reduce(flat_a, axis=1)
+        lo_b, hi_b = np.fmin.reduce(flat_b, axis=1), np.fmax.reduce(flat_b, axis=1)
         may = np.maximum(hi_b - lo_a, hi_a - lo_b) > lod
     keep = np.flatnonzero(may)
     if len(keep) == 0:
         return []
     xg, yg, c1, c2 = xg[keep], yg[keep], c1[keep], c2[keep]
-    dz = _surface(nb[keep]) - _surface(na[keep])
+    surfaces = _surface(np.concatenate([na[keep], nb[keep]]))
+    dz = surfaces[len(keep) :] - surfaces[: len(keep)]
     # A tile moved when at least three of its nine nodes moved beyond the LoD: one node
     # alone is often an interpolation difference between the two sets of kept points.
     with np.errstate(invalid="ignore"):
@@ -134,9 +138,8 @@ def detect(
         # Noise moves nodes both ways and its mean stays inside the LoD; a real change is coherent.
         if abs(mean_dz) < lod:
             continue
-        geom = shapely.union_all(
-            [shapely.box(x, y, x + level, y + level) for x, y in zip(xg[members], yg[members])]
-        )
+        x, y = xg[members], yg[members]
+        geom = shapely.coverage_union_all(shapely.box(x, y, x + level, y + level))  # tiles never overlap
         regions.append((members, mean_dz, geom))
     if not regions:
         return []
@@ -199,15 +202,19 @@ def _matched(
         nx, ny = (cx[:, None] + ring[:, 0]).ravel(), (cy[:, None] + ring[:, 1]).ravel()
         near = np.unique(tile_key(nx, ny))
         bbox = (float(nx.min() * lv), float(ny.min() * lv), float((nx.max() + 1) * lv), float((ny.max() + 1) * lv))
-        txg, tyg, code = db.tiles(version, level=lv, bbox=bbox)
+        txg, tyg, code = db.tiles(version, level=lv, bbox=bbox, ordered=False)
         if len(txg) == 0:
             continue
         among = np.isin(tile_key(txg // lv, tyg // lv), near)
+        txg, tyg, code = txg[among], tyg[among], code[among]
         lat = lattice
         if lv != level:
             grow = REACH_TILES * lv + lv
             px, py, pz, _ = db.points(
-                version, level=lv, bbox=(bbox[0] - grow, bbox[1] - grow, bbox[2] + grow, bbox[3] + grow)
+                version,
+                level=lv,
+                bbox=(bbox[0] - grow, bbox[1] - grow, bbox[2] + grow, bbox[3] + grow),
+                ordered=False,
             )
             lat = node_lattice(px, py, pz, lv)
         # Regions and matches meet on the finer of the two tile lattices.
@@ -218,7 +225,7 @@ def _matched(
             flt = filters[name]
             if flt.level != lv:
                 continue
-            found = match_tiles(txg, tyg, code, lat, flt, level=lv, among=among)
+            found = match_tiles(txg, tyg, code, lat, flt, level=lv, shapes=False)
             tiles = np.concatenate([m.tiles for m in found]) if found else np.zeros(0, np.intp)
             mx, my = _split(txg[tiles] // lv, tyg[tiles] // lv, lv // fine)
             inside = np.isin(tile_key(rx, ry), tile_key(mx, my))

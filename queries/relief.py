@@ -32,18 +32,27 @@ class NodeLattice:
 
     def at(self, i: NDArray[np.int64], j: NDArray[np.int64]) -> NDArray[np.float64]:
         i, j = np.broadcast_arrays(i, j)
+        rows, cols = self.z.shape
+        if self.z.size == 0:
+            return np.full(np.shape(i), np.nan)
         ii, jj = i - self.i0, j - self.j0
-        ok = (ii >= 0) & (jj >= 0) & (ii < self.z.shape[1]) & (jj < self.z.shape[0])
-        out = np.full(np.shape(i), np.nan)
-        out[ok] = self.z[jj[ok], ii[ok]]
-        return out
+        # one unsigned comparison per axis also rejects negative offsets
+        ok = (ii.astype(np.uint64) < cols) & (jj.astype(np.uint64) < rows)
+        return np.where(ok, self.z.ravel()[np.where(ok, jj * cols + ii, 0)], np.nan)
 
     def tile_nodes(self, xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NDArray[np.float64]:
         """(T, SUBGRID, SUBGRID) stored heights of each tile (rows south to north), NaN where none."""
+        ni = np.rint(np.asarray(xg) / self.spacing).astype(np.int64) - self.i0
+        nj = np.rint(np.asarray(yg) / self.spacing).astype(np.int64) - self.j0
+        rows, cols = self.z.shape
+        inside = (ni >= 0) & (nj >= 0) & (ni <= cols - SUBGRID) & (nj <= rows - SUBGRID)
+        if inside.all():  # the usual case: one gather of whole windows
+            windows = np.lib.stride_tricks.sliding_window_view(self.z, (SUBGRID, SUBGRID))
+            return np.asarray(windows[nj, ni], np.float64)
         d = np.arange(SUBGRID)
-        ni = np.rint(np.asarray(xg) / self.spacing).astype(np.int64)[:, None, None] + d[None, None, :]
-        nj = np.rint(np.asarray(yg) / self.spacing).astype(np.int64)[:, None, None] + d[None, :, None]
-        return self.at(ni, nj)
+        return self.at(
+            (ni + self.i0)[:, None, None] + d[None, None, :], (nj + self.j0)[:, None, None] + d[None, :, None]
+        )
 
     def corners(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
         """Bilinear height from the tile corners (every ``SUBGRID − 1``-th node) at (x, y)."""

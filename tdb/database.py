@@ -334,13 +334,17 @@ class Database:
         level: int = 2,
         bbox: tuple[float, float, float, float] | None = None,
         categories: list[int] | None = None,
+        ordered: bool = True,
     ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]:
         """(xg, yg, code) of the tiles of ``version`` at ``level`` overlapping ``bbox``, optionally only
-        those whose code is in ``categories`` (bound parameters: user text never becomes SQL)."""
+        those whose code is in ``categories`` (bound parameters: user text never becomes SQL).
+        Ordered by (xg, yg) unless ``ordered`` is false and ``categories`` is None (then block by block)."""
         vid = self.version(version).id
         if categories is None:
             # all categories: the block pages are read far faster than the rows
             xg, yg, code = self._block_tiles(vid, _level(level), bbox)
+            if not ordered:
+                return xg, yg, code
             order = np.lexsort((yg, xg))
             return xg[order], yg[order], code[order]
         table = schema.level_tables[_level(level)]
@@ -358,11 +362,20 @@ class Database:
         return _columns(self._probe(q, table.c.xg, xs.tolist()), (np.int64, np.int64, np.uint8))
 
     def points(
-        self, version: str, *, level: int = 2, bbox: tuple[float, float, float, float] | None = None
+        self,
+        version: str,
+        *,
+        level: int = 2,
+        bbox: tuple[float, float, float, float] | None = None,
+        ordered: bool = True,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
         """(x, y, z, n) of the kept points of ``version`` belonging to ``level`` inside ``bbox``,
-        ordered by (x, y). Read from the block pages; the ``tdb`` rows hold the same points."""
+        ordered by (x, y) unless ``ordered`` is false (then block by block: sorting a square
+        kilometre's points costs more than reading them). Read from the block pages; the
+        ``tdb`` rows hold the same points."""
         x, y, z, n = self._block_points(self.version(version).id, _level(level), bbox)
+        if not ordered:
+            return x, y, z, n
         order = np.lexsort((y, x))
         return x[order], y[order], z[order], n[order]
 

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from ingest.ground.fill import fill_linear, fill_lines, fill_nearest
+from ingest.ground.fill import fill_linear, fill_lines, fill_lines_stack, fill_nearest
 from ingest.ground.grids import CellSort, Grid, corner_heights
 from tdb.errors import InputError
 
@@ -48,6 +48,23 @@ def test_two_passes_fill_tiles_known_at_their_corners_with_the_plane(a, b, c):
     tiles[:, [0, 0, 4, 4], [0, 4, 0, 4]] = plane[:, [0, 0, 4, 4], [0, 4, 0, 4]]
     assert np.isnan(fill_lines(tiles)[:, 1:4, 1:4]).all()  # one pass reaches the edges only
     np.testing.assert_allclose(fill_lines(tiles, passes=2), plane, atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), holes=st.floats(0.0, 1.0), passes=st.integers(1, 3), size=st.integers(2, 6))
+def test_fill_lines_stack_equals_filling_each_raster(seed, holes, passes, size):
+    rng = np.random.default_rng(seed)
+    stack = rng.normal(size=(200, size, size)) * 10
+    # few patterns, as in a database: holes drawn from a small set of masks
+    masks = rng.random((6, size, size)) < holes
+    stack[masks[rng.integers(0, 6, 200)]] = np.nan
+    cells = rng.choice(size * size, size=min(4, size * size), replace=False)
+    expected = fill_lines(stack, passes=passes).reshape(200, -1)[:, cells]
+    got = fill_lines_stack(stack, passes=passes, cells=cells)
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(expected))
+    np.testing.assert_allclose(got, expected, atol=1e-9)
+    # the second call reads the cached weights and must agree too
+    np.testing.assert_allclose(fill_lines_stack(stack, passes=passes, cells=cells), expected, atol=1e-9)
 
 
 def test_fill_nearest_takes_the_nearest_value_and_refuses_an_empty_raster():

@@ -98,3 +98,18 @@ def test_elongation_tells_a_line_from_a_blob():
     assert elongation(t, 0.5 * t, level=2) == pytest.approx(np.hypot(40, 20) / 2)
     a = np.linspace(0, 2 * np.pi, 24, endpoint=False)
     assert elongation(6 * np.cos(a), 6 * np.sin(a), level=2) < 1.2
+
+
+def test_tile_nodes_read_the_lattice_inside_and_nan_beyond_it():
+    level = 2
+    s = level / 4
+    x, y = (a.ravel() for a in np.meshgrid(np.arange(0, 8.01, s), np.arange(0, 5.01, s)))
+    z = 3.0 * x + 0.5 * y
+    lattice = node_lattice(x, y, z, level)
+    xg, yg = np.array([0, 2, 6]), np.array([0, 2, 4])
+    inside = lattice.tile_nodes(xg[:2], yg[:2])  # wholly on the lattice: one gather of windows
+    d = np.arange(5) * s
+    np.testing.assert_allclose(inside[1], 3.0 * (2 + d[None, :]) + 0.5 * (2 + d[:, None]))
+    partly = lattice.tile_nodes(xg, yg)  # the last tile runs off the lattice's north edge
+    np.testing.assert_allclose(partly[:2], inside)
+    assert np.isnan(partly[2, 3:]).all() and not np.isnan(partly[2, :3]).any()  # rows y = 4, 4.5, 5 only
