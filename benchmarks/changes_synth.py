@@ -6,8 +6,9 @@ Terrain changes at least 0.5 m high or deep are the truth. A true change's area
 counts as found where a reported region covers it; a reported region's area is
 right where it lies within 2 m (one tile) of a true change.
 
-The speed of a diff over 1 km² is measured on one 1 km scene and its re-survey
-after four rounds of changes (4 M points per survey), diffed over its whole extent.
+The speed of a diff and of a ditch query over 1 km² is measured on one 1 km scene
+and its re-survey after four rounds of changes (4 M points per survey), over its
+whole extent.
     python -m benchmarks.changes_synth [--seeds 1,2,3] [--size 300] [--density 4]
 """
 
@@ -24,6 +25,7 @@ from benchmarks.common import save, synthetic_runs
 from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
 from queries.changes import detect
+from queries.match import find
 
 EXPECTED = {
     "ditch_dug": "ditch dug",
@@ -71,15 +73,28 @@ def km2_pair(workdir: Path, *, density: float, size: float = 1000.0, rounds: int
 
 
 def diff_seconds(path: Path, *, runs: int = 3) -> dict[str, float]:
-    """Median seconds of ``runs`` diffs over the whole extent of the database at ``path``."""
+    """Seconds of ``runs`` diffs, and of ``runs`` ditch queries on the earlier version, over the
+    whole extent of the database at ``path`` (median, and the first run in this process)."""
     db = tdb.open(path)
-    seconds = []
+    seconds, query_seconds = [], []
     for _ in range(runs):
         t0 = time.perf_counter()
         found = detect(db, "before", "after")
         seconds.append(time.perf_counter() - t0)
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        ditches = find(db, "before", "ditch")
+        query_seconds.append(time.perf_counter() - t0)
     x0, y0, x1, y1 = db.version("before").stats["bounds"]
-    return {"km2": (x1 - x0) * (y1 - y0) / 1e6, "seconds": float(np.median(seconds)), "regions": len(found)}
+    return {
+        "km2": (x1 - x0) * (y1 - y0) / 1e6,
+        "seconds": float(np.median(seconds)),
+        "first_seconds": seconds[0],
+        "regions": len(found),
+        "ditch_query_seconds": float(np.median(query_seconds)),
+        "ditch_query_first_seconds": query_seconds[0],
+        "ditches": len(ditches),
+    }
 
 
 def main() -> None:

@@ -231,6 +231,16 @@ def changes_section(out: list[str]) -> None:
             f"median of three runs **{mo['seconds']:.2f} s**, {mo['regions']} regions (target ≤ 0.5 s per km²).",
             "",
         ]
+        if "ditch_query_seconds" in mo:
+            out += [
+                f"The first diff in a fresh process took {mo['first_seconds']:.2f} s (one-time work: the filters "
+                "are loaded and the fill weights of each tile pattern are worked out and cached).",
+                "",
+                f"Ditch query over the same {mo['km2']:.2f} km² (earlier survey, whole extent): median of three "
+                f"runs **{mo['ditch_query_seconds']:.2f} s** (first {mo['ditch_query_first_seconds']:.2f} s), "
+                f"{mo['ditches']} ditches (target ≤ 0.5 s per km²).",
+                "",
+            ]
 
 
 def main() -> None:

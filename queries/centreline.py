@@ -24,13 +24,23 @@ def centreline(x: NDArray[np.float64], y: NDArray[np.float64], *, link: float) -
 
     Returns an empty LineString for fewer than two distinct points.
     """
-    pts = np.unique(np.column_stack([x, y]).round(6), axis=0)
-    if len(pts) < 2:
-        return shapely.LineString()
-    tree = cKDTree(pts)
-    dist = tree.sparse_distance_matrix(tree, link, output_type="coo_matrix")
-    upper = dist.row < dist.col
-    graph = coo_matrix((dist.data[upper], (dist.row[upper], dist.col[upper])), shape=(len(pts), len(pts)))
+    return centrelines(x, y, np.zeros(len(x), np.intp), link=link, count=1)[0]
+
+
+def centrelines(
+    x: NDArray[np.float64], y: NDArray[np.float64], group: NDArray[np.intp], *, link: float, count: int
+) -> list[shapely.Geometry]:
+    """:func:`centreline` of each of ``count`` groups of points at once (``group``: each point's).
+
+    One tree and one spanning forest serve all groups: only points of the same group are
+    joined, so the forest is the union of each group's own tree.
+    """
+    keyed = np.unique(np.column_stack([group, np.round(x, 6), np.round(y, 6)]), axis=0)
+    owner, pts = keyed[:, 0].astype(np.intp), keyed[:, 1:]
+    pairs = cKDTree(pts).query_pairs(link, output_type="ndarray")
+    pairs = pairs[owner[pairs[:, 0]] == owner[pairs[:, 1]]]
+    length = np.hypot(*(pts[pairs[:, 0]] - pts[pairs[:, 1]]).T)
+    graph = coo_matrix((length, (pairs[:, 0], pairs[:, 1])), shape=(len(pts), len(pts)))
     mst = minimum_spanning_tree(graph).tocoo()
     a, b = mst.row, mst.col
     for _ in range(SPUR_ROUNDS):
@@ -40,10 +50,15 @@ def centreline(x: NDArray[np.float64], y: NDArray[np.float64], *, link: float) -
         if not spur.any():
             break
         a, b = a[~spur], b[~spur]
-    if len(a) == 0:
-        return shapely.LineString()
-    segments = shapely.multilinestrings(np.stack([pts[a], pts[b]], axis=1))
-    return shapely.line_merge(segments)
+    out = [shapely.LineString()] * count
+    order = np.argsort(owner[a], kind="stable")
+    a, b = a[order], b[order]
+    starts = np.searchsorted(owner[a], np.arange(count + 1))
+    for g in range(count):
+        lo, hi = starts[g], starts[g + 1]
+        if hi > lo:
+            out[g] = shapely.line_merge(shapely.multilinestrings(np.stack([pts[a[lo:hi]], pts[b[lo:hi]]], axis=1)))
+    return out
 
 
 def elongation(x: NDArray[np.float64], y: NDArray[np.float64], *, level: float) -> float:

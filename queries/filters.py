@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from ingest.tiles import tile_key
 from tdb.categories import FEATURE_NAMES, SUBPART_UV, all_categories
 from tdb.errors import FilterError
 
@@ -143,6 +144,20 @@ def _touching(gap: int) -> dict[tuple[int, int], tuple[tuple[int, int], ...]]:
     return {(dx, dy): () for dx in range(0, r + 1) for dy in range(-r, r + 1) if dx > 0 or dy > 0}
 
 
+@cache
+def _link_tables() -> dict[tuple[int, int], NDArray[np.bool_]]:
+    """Per neighbour offset, whether the break lines of codes (a, b) meet across the shared edge."""
+    ends = _endpoints()
+    tables = {}
+    for offset, pairs in LINKS.items():
+        table = np.zeros((256, 256), bool)
+        for a, ea in enumerate(ends):
+            for b, eb in enumerate(ends):
+                table[a, b] = any(p in ea and q in eb for p, q in pairs)
+        tables[offset] = table
+    return tables
+
+
 def components(
     xg: NDArray[np.int64], yg: NDArray[np.int64], code: NDArray[np.uint8], flt: Filter, level: int
 ) -> list[NDArray[np.intp]]:
@@ -150,37 +165,47 @@ def components(
     sel = np.flatnonzero(np.isin(FEATURES[code], list(flt.features)))
     if len(sel) == 0:
         return []
-    ends = _endpoints()
-    index = {(int(x), int(y)): k for k, (x, y) in enumerate(zip(xg[sel], yg[sel]))}
+    ti, tj = np.asarray(xg)[sel] // level, np.asarray(yg)[sel] // level
+    keys = tile_key(ti, tj)
+    order = np.argsort(keys)
+    sorted_keys = keys[order]
     rows, cols = [], []
     links = LINKS if flt.join == "lines" else _touching(flt.gap)
-    for k, (x, y) in enumerate(zip(xg[sel], yg[sel])):
-        for (dx, dy), pairs in links.items():
-            j = index.get((int(x) + dx * level, int(y) + dy * level))
-            if j is None:
-                continue
-            if flt.join == "lines":
-                a, b = ends[int(code[sel[k]])], ends[int(code[sel[j]])]
-                if not any(p in a and q in b for p, q in pairs):
-                    continue
-            rows.append(k)
-            cols.append(j)
-    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(sel), len(sel)))
-    n, labels = connected_components(graph, directed=False)
-    groups = [sel[labels == g] for g in range(n)]
+    for (dx, dy), _ in links.items():
+        wanted = tile_key(ti + dx, tj + dy)
+        pos = np.minimum(np.searchsorted(sorted_keys, wanted), len(keys) - 1)
+        k = np.flatnonzero(sorted_keys[pos] == wanted)
+        j = order[pos[k]]
+        if flt.join == "lines":
+            meet = _link_tables()[(dx, dy)][code[sel[k]], code[sel[j]]]
+            k, j = k[meet], j[meet]
+        rows.append(k)
+        cols.append(j)
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(len(r)), (r, c)), shape=(len(sel), len(sel)))
+    _, labels = connected_components(graph, directed=False)
+    by_label = np.argsort(labels, kind="stable")
+    groups = np.split(sel[by_label], np.flatnonzero(np.diff(labels[by_label])) + 1)
     return [g for g in groups if len(g) >= flt.min_tiles]
+
+
+@cache
+def _line_ends() -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Per code, the break line's end points in tile units, and whether the code has one."""
+    start, end, has = np.zeros((256, 2)), np.zeros((256, 2)), np.zeros(256, bool)
+    for c in all_categories():
+        if c.orientation is not None and c.orientation[0] != c.orientation[1]:
+            start[c.code], end[c.code], has[c.code] = (
+                SUBPART_UV[c.orientation[0]],
+                SUBPART_UV[c.orientation[1]],
+                True,
+            )
+    return start, end, has
 
 
 def tile_lines(xg: NDArray[np.int64], yg: NDArray[np.int64], code: NDArray[np.uint8], level: int) -> list[Any]:
     """Each tile's break line in world coordinates (None for tiles without one)."""
-    out: list[Any] = []
-    for x, y, c in zip(xg, yg, code):
-        cat = all_categories()[int(c)] if c < 115 else None
-        if cat is None or cat.orientation is None or cat.orientation[0] == cat.orientation[1]:
-            out.append(None)
-            continue
-        p, q = SUBPART_UV[cat.orientation[0]], SUBPART_UV[cat.orientation[1]]
-        out.append(
-            shapely.LineString([(x + p[0] * level, y + p[1] * level), (x + q[0] * level, y + q[1] * level)])
-        )
-    return out
+    start, end, has = _line_ends()
+    origin = np.column_stack([xg, yg]).astype(np.float64)
+    lines = shapely.linestrings(np.stack([origin + start[code] * level, origin + end[code] * level], axis=1))
+    return [line if h else None for line, h in zip(lines, has[code])]

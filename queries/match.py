@@ -6,7 +6,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from queries.centreline import centreline, elongation
+from queries.centreline import centrelines, elongation
 from queries.filters import FEATURES, Filter, Match, builtin_filters, components, tile_lines
 from queries.relief import NodeLattice, node_lattice, tile_relief
 from tdb.database import Database
@@ -80,22 +80,29 @@ def match_tiles(
     keep, relief, ex, ey = cand[ok], relief[ok], ex[ok], ey[ok]
     xg, yg, code = xg[keep], yg[keep], code[keep]
     groups = components(xg, yg, code, flt, lv)
-    lines = tile_lines(xg, yg, code, lv) if flt.linear and shapes else []
-    out = []
+    found: list[tuple[NDArray[np.intp], float]] = []
     for g in groups:
         measure = float(np.nanmedian(relief[g])) if np.isfinite(relief[g]).any() else float("nan")
         if measure < flt.min_measure:  # NaN (no relief measured) is kept
             continue
         if flt.linear and elongation(ex[g], ey[g], level=lv) < flt.min_elongation:
             continue
-        if not shapes:
-            out.append(Match(flt.name, lv, keep[g], shapely.GeometryCollection(), float("nan"), measure))
-            continue
+        found.append((g, measure))
+    if not shapes:
+        return [Match(flt.name, lv, keep[g], shapely.GeometryCollection(), float("nan"), m) for g, m in found]
+    if flt.linear and flt.measure != "step":
+        owner = np.repeat(np.arange(len(found)), [len(g) for g, _ in found])
+        tiles = np.concatenate([g for g, _ in found]) if found else np.zeros(0, np.intp)
+        link = (LINK_TILES + flt.gap) * lv
+        geoms = centrelines(ex[tiles], ey[tiles], owner, link=link, count=len(found))
+    else:  # a step has no extreme line; polygons come from the tiles
+        geoms = [shapely.LineString()] * len(found)
+    out = []
+    for (g, measure), geom in zip(found, geoms):
         if flt.linear:
-            step = flt.measure == "step"
-            geom = shapely.LineString() if step else centreline(ex[g], ey[g], link=(LINK_TILES + flt.gap) * lv)
-            if geom.is_empty:  # a step has no extreme line: follow the break lines
-                geom = shapely.line_merge(shapely.union_all([lines[t] for t in g if lines[t] is not None]))
+            if geom.is_empty:  # no extreme line: follow the break lines
+                lines = [line for line in tile_lines(xg[g], yg[g], code[g], lv) if line is not None]
+                geom = shapely.line_merge(shapely.union_all(lines))
             length = float(geom.length)
         else:
             # tiles never overlap: a coverage union is exact and much faster than a general one

@@ -8,7 +8,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from queries.centreline import centreline, elongation
+from queries.centreline import centreline, centrelines, elongation
 from queries.relief import node_lattice, tile_relief, two_sided_relief
 
 LEVEL = 2
@@ -113,3 +113,15 @@ def test_tile_nodes_read_the_lattice_inside_and_nan_beyond_it():
     partly = lattice.tile_nodes(xg, yg)  # the last tile runs off the lattice's north edge
     np.testing.assert_allclose(partly[:2], inside)
     assert np.isnan(partly[2, 3:]).all() and not np.isnan(partly[2, :3]).any()  # rows y = 4, 4.5, 5 only
+
+
+def test_centrelines_of_groups_side_by_side_stay_apart():
+    t = np.arange(0.0, 20.0, 1.0)
+    x = np.concatenate([t, t])
+    y = np.concatenate([np.zeros_like(t), np.full_like(t, 2.0)])  # two lines 2 m apart, link 3 m
+    group = np.repeat([0, 1], len(t))
+    lines = centrelines(x, y, group, link=3.0, count=3)
+    for g in (0, 1):
+        alone = centreline(x[group == g], y[group == g], link=3.0)
+        assert lines[g].equals(alone) and lines[g].length == pytest.approx(19.0)
+    assert lines[2].is_empty  # a group with no points
