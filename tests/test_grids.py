@@ -124,3 +124,15 @@ def test_by_tiles_equals_the_whole_cloud_for_a_local_filter():
     tiled = by_tiles(xyz, local, target_points=2_000, buffer=10.0)
     np.testing.assert_array_equal(tiled, local(xyz))
     assert by_tiles(xyz[:100], local, target_points=2_000).sum() == local(xyz[:100]).sum()
+
+
+def test_by_tiles_in_two_processes_equals_one():
+    from ingest.ground.auto import auto_ground
+    from ingest.ground.tiling import by_tiles
+
+    rng = np.random.default_rng(5)
+    xyz = np.column_stack([rng.uniform(0, 200, 8_000), rng.uniform(0, 100, 8_000), rng.normal(0, 0.05, 8_000)])
+    xyz[rng.random(8_000) < 0.1, 2] += 5.0  # objects for the filter to remove
+    one = by_tiles(xyz, auto_ground, target_points=2_000, buffer=10.0)
+    np.testing.assert_array_equal(by_tiles(xyz, auto_ground, target_points=2_000, buffer=10.0, workers=2), one)
+    assert 0.5 < one.mean() < 0.95

@@ -9,7 +9,7 @@ from ingest.ground.auto import AutoParams, auto_ground
 from ingest.ground.contour import ContourParams, active_contour
 from ingest.ground.outliers import deep_pits, low_outliers
 from ingest.ground.sohn import SohnParams, sohn_dowman
-from ingest.ground.tiling import by_tiles
+from ingest.ground.tiling import available_cores, by_tiles
 from tdb.cloud import PointCloud, check_spread, from_arrays
 from tdb.options import GroundMethod, parse
 
@@ -44,7 +44,7 @@ def classify_ground(
     ground = np.zeros(len(xyz), bool)
     keep = np.flatnonzero(~out)
     if m is GroundMethod.SOHN:
-        ground[keep] = by_tiles(xyz[keep], sohn_dowman)
+        ground[keep] = by_tiles(xyz[keep], sohn_dowman, workers=available_cores())
     else:
         ground[keep] = active_contour(xyz[keep])
     return ground

@@ -245,9 +245,13 @@ def _description_lengths(
     vx = xyz[all_tris[tri_ids[tj]]]  # (P, 3, xyz)
     d = vx[:, :, 2] - (plane[:, None, 0] * vx[:, :, 0] + plane[:, None, 1] * vx[:, :, 1] + plane[:, None, 2])
     n_on = (d <= p.delta_h).sum(axis=1)
-    dtheta = angle_between(tri_normals[tri_ids[tj]], normals[ci, k])
-    cost = np.where(n_on == 3, -np.log2(p_on(dtheta, p)), np.where(n_on > 0, -np.log2(p_buf(dtheta, p)), 0.0))
-    dl = np.bincount(ci, cost, minlength=n_cand).astype(np.float64)
+    # Offs cost nothing (their length is the −log2 N_offs term): angles only for ons and bufs.
+    labelled = np.flatnonzero(n_on > 0)
+    dtheta = angle_between(tri_normals[tri_ids[tj[labelled]]], normals[ci[labelled], k[labelled]])
+    # −log2 of Eq. 13's logistic, as a softplus: one stable ufunc instead of exp, divide and log
+    x = p.alpha * (dtheta - p.beta)
+    cost = np.logaddexp(0.0, np.where(n_on[labelled] == 3, x, -x)) / np.log(2.0)
+    dl = np.bincount(ci[labelled], cost, minlength=n_cand).astype(np.float64)
     n_offs = np.bincount(ci, (n_on == 0).astype(np.float64), minlength=n_cand).astype(np.float64)
     return dl - np.log2(np.maximum(n_offs, 1.0)) + np.log2(np.maximum(h[cand], 1e-3))
 

@@ -7,7 +7,11 @@ own terrain is done, and memory stays bounded by the tile size.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
+from multiprocessing import get_context
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,12 +23,15 @@ def by_tiles(
     *,
     target_points: int = 60_000,
     buffer: float = 25.0,
+    workers: int = 1,
 ) -> NDArray[np.bool_]:
     """Ground mask from ``filter_fn`` run on square tiles of about ``target_points`` points.
 
     Each tile is filtered together with the points within ``buffer`` m around it,
     and only its own points take the result, so edge effects stay in the buffer.
-    Clouds that fit one tile are filtered whole.
+    Clouds that fit one tile are filtered whole. With ``workers`` > 1 the tiles are
+    filtered in that many processes (``filter_fn`` must then be a module-level
+    function); tiles are independent, so the result is the same.
     """
     xy = xyz[:, :2]
     lo, hi = xy.min(axis=0), xy.max(axis=0)
@@ -36,7 +43,7 @@ def by_tiles(
     nx, ny = (int(np.ceil(s / side)) for s in span)
     col = np.minimum(((xy[:, 0] - lo[0]) / side).astype(np.intp), nx - 1)
     row = np.minimum(((xy[:, 1] - lo[1]) / side).astype(np.intp), ny - 1)
-    out = np.zeros(len(xyz), bool)
+    jobs = []
     for r in range(ny):
         for c in range(nx):
             core = (row == r) & (col == c)
@@ -49,9 +56,44 @@ def by_tiles(
                 & (xy[:, 1] >= y0)
                 & (xy[:, 1] <= y0 + side + 2 * buffer)
             )
-            if len(near) < 3:
-                continue
-            ground = filter_fn(xyz[near])
-            mine = core[near]
-            out[near[mine]] = ground[mine]
+            if len(near) >= 3:
+                jobs.append((near, core[near]))
+    out = np.zeros(len(xyz), bool)
+    if workers > 1 and len(jobs) > 1:
+        # spawn: a forked child would inherit the parent's threads and locks. One BLAS thread
+        # per worker: OpenBLAS threads of several processes spinning on the same cores made
+        # a 6 s tile take over five minutes.
+        with (
+            _one_thread_each(),
+            ProcessPoolExecutor(min(workers, len(jobs)), mp_context=get_context("spawn")) as pool,
+        ):
+            results = list(pool.map(filter_fn, [xyz[near] for near, _ in jobs]))
+    else:
+        results = [filter_fn(xyz[near]) for near, _ in jobs]
+    for (near, mine), ground in zip(jobs, results):
+        out[near[mine]] = ground[mine]
     return out
+
+
+@contextmanager
+def _one_thread_each() -> Iterator[None]:
+    """Processes started within inherit single-threaded BLAS and OpenMP settings."""
+    names = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+    saved = {k: os.environ.get(k) for k in names}
+    os.environ.update({k: "1" for k in names})
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def available_cores() -> int:
+    """Cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
