@@ -29,12 +29,19 @@ def one(method: str, site: str) -> dict[str, float]:
     t0 = time.perf_counter()
     methods()[method](cloud.xyz)
     dt = time.perf_counter() - t0
+    import resource
+
+    from ingest.ground.tiling import available_cores
+
     return {
         "points": len(cloud),
         "seconds": dt,
         "points_per_s": len(cloud) / dt,
         "peak_rss_mib": peak_rss_mib(),
         "rss_after_read_mib": base,
+        # Sohn–Dowman filters its tiles in worker processes, one per core: the largest worker's peak
+        "worker_peak_rss_mib": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024,
+        "cores": available_cores(),
     }
 
 
