@@ -121,8 +121,11 @@ def test_by_tiles_equals_the_whole_cloud_for_a_local_filter():
     def local(points):  # depends on each point alone, so tiling must not change it
         return points[:, 2] < 0.5 * np.sin(points[:, 0] / 7.0)
 
-    tiled = by_tiles(xyz, local, target_points=2_000, buffer=10.0)
+    calls = []
+    tiled = by_tiles(xyz, local, target_points=2_000, buffer=10.0, progress=lambda k, n: calls.append((k, n)))
     np.testing.assert_array_equal(tiled, local(xyz))
+    n = calls[-1][1]
+    assert n >= 8 and calls == [(k, n) for k in range(1, n + 1)]  # one call per tile, in order
     assert by_tiles(xyz[:100], local, target_points=2_000).sum() == local(xyz[:100]).sum()
 
 

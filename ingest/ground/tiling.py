@@ -8,7 +8,7 @@ own terrain is done, and memory stays bounded by the tile size.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from multiprocessing import get_context
@@ -24,6 +24,7 @@ def by_tiles(
     target_points: int = 60_000,
     buffer: float = 25.0,
     workers: int = 1,
+    progress: Callable[[int, int], None] | None = None,
 ) -> NDArray[np.bool_]:
     """Ground mask from ``filter_fn`` run on square tiles of about ``target_points`` points.
 
@@ -31,14 +32,18 @@ def by_tiles(
     and only its own points take the result, so edge effects stay in the buffer.
     Clouds that fit one tile are filtered whole. With ``workers`` > 1 the tiles are
     filtered in that many processes (``filter_fn`` must then be a module-level
-    function); tiles are independent, so the result is the same.
+    function); tiles are independent, so the result is the same. ``progress`` is called
+    with (tiles done, tiles) as each tile finishes.
     """
     xy = xyz[:, :2]
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     span = np.maximum(hi - lo, 1e-6)
     tiles_wanted = len(xyz) / target_points
     if tiles_wanted <= 1.5:
-        return filter_fn(xyz)
+        whole = filter_fn(xyz)
+        if progress:
+            progress(1, 1)
+        return whole
     side = float(np.sqrt(span[0] * span[1] / tiles_wanted))
     nx, ny = (int(np.ceil(s / side)) for s in span)
     col = np.minimum(((xy[:, 0] - lo[0]) / side).astype(np.intp), nx - 1)
@@ -67,12 +72,24 @@ def by_tiles(
             _one_thread_each(),
             ProcessPoolExecutor(min(workers, len(jobs)), mp_context=get_context("spawn")) as pool,
         ):
-            results = list(pool.map(filter_fn, [xyz[near] for near, _ in jobs]))
+            results = pool.map(filter_fn, [xyz[near] for near, _ in jobs])
+            _gather(out, jobs, results, progress)
     else:
-        results = [filter_fn(xyz[near]) for near, _ in jobs]
-    for (near, mine), ground in zip(jobs, results):
-        out[near[mine]] = ground[mine]
+        _gather(out, jobs, (filter_fn(xyz[near]) for near, _ in jobs), progress)
     return out
+
+
+def _gather(
+    out: NDArray[np.bool_],
+    jobs: list[tuple[NDArray[np.intp], NDArray[np.bool_]]],
+    results: Iterable[NDArray[np.bool_]],
+    progress: Callable[[int, int], None] | None,
+) -> None:
+    """Each tile's own points take its result, in tile order, as the results come."""
+    for done, ((near, mine), ground) in enumerate(zip(jobs, results), start=1):
+        out[near[mine]] = ground[mine]
+        if progress:
+            progress(done, len(jobs))
 
 
 @contextmanager

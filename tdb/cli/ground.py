@@ -48,6 +48,7 @@ def command(
       tdb ground samp11.txt --crs EPSG:32632 --dtm samp11.tif --resolution 1
     """
     import numpy as np
+    from tqdm import tqdm
 
     from ingest.dtm import dense_model
     from ingest.ground import classify_ground
@@ -56,7 +57,13 @@ def command(
 
     raw = read(cloud, crs=crs, labels=labels)
     metric = to_metres(raw, assume_metres=assume_metres)
-    ground = classify_ground(metric, method=method)
+    with tqdm(total=1, unit="tile", desc=f"ground ({method})", leave=False) as bar:
+
+        def advance(done: int, total: int) -> None:
+            bar.total = total
+            bar.update(done - bar.n)
+
+        ground = classify_ground(metric, method=method, progress=advance)
     click.echo(f"{int(ground.sum()):,} of {len(raw):,} points are ground ({100 * ground.mean():.1f} %)")
     if out:
         write_las(out, raw, classification=np.where(ground, 2, 1).astype(np.uint8))
