@@ -67,8 +67,9 @@ def rebuild_error(tiles: NDArray[np.float64], keep: NDArray[np.bool_], *, n: int
     """
     z = np.where(keep, tiles, np.nan)
     rebuilt = fill_lines(z.reshape(-1, n, n), passes=2).reshape(tiles.shape)
-    with np.errstate(invalid="ignore"):
-        mean = np.nanmean(z, axis=1, keepdims=True)  # NaN where nothing is kept: RuntimeWarning
+    known = ~np.isnan(z)
+    kept = known.sum(axis=1, keepdims=True)
+    mean = np.where(kept > 0, np.where(known, z, 0.0).sum(axis=1, keepdims=True) / np.maximum(kept, 1), np.nan)
     rebuilt = np.where(np.isnan(rebuilt), mean, rebuilt)
     err = np.abs(rebuilt - tiles)
     return np.where(np.isnan(tiles), 0.0, np.where(np.isnan(rebuilt), np.inf, err))
