@@ -102,6 +102,12 @@ def load_filter(path: str | os.PathLike[str]) -> Filter:
 
 
 def builtin_filters() -> dict[str, Filter]:
+    """The filters shipped in ``queries/filters``, by name (read and validated once per process)."""
+    return dict(_builtin_filters())
+
+
+@cache
+def _builtin_filters() -> dict[str, Filter]:
     folder = Path(__file__).resolve().parent / "filters"
     return {f.name: f for f in (load_filter(p) for p in sorted(folder.glob("*.json")))}
 
