@@ -9,13 +9,14 @@ right where it lies within 2 m (one tile) of a true change.
 The speed of a diff and of a ditch query over 1 km² is measured on one 1 km scene
 and its re-survey after four rounds of changes (4 M points per survey), over its
 whole extent.
-    python -m benchmarks.changes_synth [--seeds 1,2,3] [--size 300] [--density 4]
+    python -m benchmarks.changes_synth [--seeds 1,2,3] [--size 300] [--density 4] [--km2-dir DIR]
 """
 
 from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import shapely
@@ -98,11 +99,23 @@ def diff_seconds(path: Path, *, runs: int = 3) -> dict[str, float]:
 
 
 def main() -> None:
-    runs, settings = synthetic_runs(__doc__, evaluate)
+    def km2_option(parser: Any) -> None:
+        parser.add_argument(
+            "--km2-dir", type=Path, help="keep the 1 km² pair's database here and reuse it when present"
+        )
+
+    runs, settings = synthetic_runs(__doc__, evaluate, extra=km2_option)
     import tempfile
 
+    keep = settings.pop("km2_dir")
     with tempfile.TemporaryDirectory() as tmp:
-        settings["km2"] = diff_seconds(km2_pair(Path(tmp), density=float(settings["density"])))
+        workdir = keep or Path(tmp)
+        workdir.mkdir(parents=True, exist_ok=True)
+        path = workdir / "km2.tdb"
+        if not path.exists() or {v.name for v in tdb.open(path).versions()} != {"before", "after"}:
+            path.unlink(missing_ok=True)  # absent, or a build that was cut short
+            path = km2_pair(workdir, density=float(settings["density"]))
+        settings["km2"] = diff_seconds(path)
     print(settings["km2"])
     typed = [t for r in runs.values() for t in r["typed"].values()]  # type: ignore[attr-defined]
     summary = {

@@ -7,6 +7,7 @@ import platform
 import resource
 import subprocess
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -45,10 +46,13 @@ def save(name: str, doc: dict[str, Any]) -> Path:
     return path
 
 
-def synthetic_runs(description: str, evaluate: Any) -> tuple[dict[int, Any], dict[str, Any]]:
-    """Parse ``--seeds/--size/--density`` and run ``evaluate(seed, size, density, workdir)`` per seed.
+def synthetic_runs(
+    description: str, evaluate: Any, *, extra: Callable[[Any], None] | None = None
+) -> tuple[dict[int, Any], dict[str, Any]]:
+    """Parse ``--seeds/--size/--density`` (and the options ``extra`` adds to the parser) and run
+    ``evaluate(seed, size, density, workdir)`` per seed.
 
-    Returns the runs by seed and the settings to save beside them.
+    Returns the runs by seed and the settings to save beside them (with the extra options).
     """
     import argparse
     import tempfile
@@ -57,10 +61,12 @@ def synthetic_runs(description: str, evaluate: Any) -> tuple[dict[int, Any], dic
     parser.add_argument("--seeds", default="1,2,3")
     parser.add_argument("--size", type=float, default=300)
     parser.add_argument("--density", type=float, default=4)
+    if extra:
+        extra(parser)
     args = parser.parse_args()
     runs = {}
     with tempfile.TemporaryDirectory() as tmp:
         for seed in [int(s) for s in args.seeds.split(",")]:
             runs[seed] = evaluate(seed, args.size, args.density, Path(tmp))
             print(seed, runs[seed], flush=True)
-    return runs, {"size": args.size, "density": args.density}
+    return runs, {k: v for k, v in vars(args).items() if k != "seeds"}

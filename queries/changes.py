@@ -28,6 +28,10 @@ from tdb.categories import NO_DATA
 from tdb.database import Database
 
 MIN_LOD = 0.10
+# A region smaller than ``min_tiles`` (but of at least MIN_STRONG_TILES) counts when its mean
+# change is at least STRONG × LoD: a 20 m² mound 1.9 m high is no noise.
+MIN_STRONG_TILES = 4
+STRONG = 3.0
 RULES = (  # (filter, sign of dz, kind when the filter matches in the later version / in the earlier one)
     ("ditch", -1, "ditch dug", "ditch filled"),
     ("ridge", +1, "ridge or wall built", "ridge or wall removed"),
@@ -127,16 +131,20 @@ def detect(
     grid[j[changed], i[changed]] = True
     labels, n = ndimage.label(grid, structure=np.ones((3, 3)))
     tile_label = labels[j, i]
+    by_label = np.argsort(tile_label, kind="stable")
+    bounds = np.searchsorted(tile_label[by_label], np.arange(1, n + 2))
     regions = []
-    for region in range(1, n + 1):
-        members = np.flatnonzero(tile_label == region)
-        if len(members) < min_tiles:
+    for region in range(n):
+        members = by_label[bounds[region] : bounds[region + 1]]
+        if len(members) < min(min_tiles, MIN_STRONG_TILES):
             continue
         d = dz[members]
         moved = np.abs(d) > lod
         mean_dz = float(np.nanmean(d[moved])) if moved.any() else 0.0
         # Noise moves nodes both ways and its mean stays inside the LoD; a real change is coherent.
         if abs(mean_dz) < lod:
+            continue
+        if len(members) < min_tiles and abs(mean_dz) < STRONG * lod:
             continue
         x, y = xg[members], yg[members]
         geom = shapely.coverage_union_all(shapely.box(x, y, x + level, y + level))  # tiles never overlap

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
+import numpy as np
 import shapely
 from click.testing import CliRunner
 
 import tdb
 from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
+from ingest.synth.scene import Feature
 from queries.changes import detect, level_of_detection
 from tdb.cli import main
 
@@ -53,3 +56,30 @@ def test_a_resurvey_of_unchanged_ground_reports_nothing(tmp_path):
     assert (ca != cb).sum() > 100  # the categories alone would report change
     area = sum(f["properties"]["area"] for f in detect(db, "a", "b"))
     assert area < 0.01 * 150 * 150
+
+
+def test_a_small_but_strong_change_is_reported(tmp_path):
+    # A mound 1.2 m high and 5.5 m across changes about six 2 m tiles: fewer than the eight a
+    # region needs in general, but its mean change is over three times the level of detection.
+    scene = make_scene(seed=11, size=120)
+    taken = shapely.union_all(
+        [f.footprint() for f in scene.features]
+        + [b.footprint for b in scene.buildings]
+        + [shapely.Point(t.x, t.y).buffer(t.crown_radius) for t in scene.trees]
+    )
+    x0, y0, x1, y1 = scene.bounds
+    spot = next(
+        shapely.Point(x, y)
+        for x in np.arange(x0 + 20, x1 - 20, 3.0)
+        for y in np.arange(y0 + 20, y1 - 20, 3.0)
+        if shapely.Point(x, y).buffer(10).disjoint(taken)
+    )
+    later = replace(scene, features=(*scene.features, Feature("mound", spot, 1.2, 5.5, ident=999)))
+    db = tdb.open(tmp_path / "m.tdb", create=True)
+    ingest(sample(scene, density=3, seed=1), db, version="a")
+    ingest(sample(later, density=3, seed=2), db, version="b")
+    hits = [
+        f["properties"] for f in detect(db, "a", "b") if shapely.geometry.shape(f["geometry"]).intersects(spot)
+    ]
+    assert len(hits) == 1 and hits[0]["tiles"] < 8
+    assert hits[0]["kind"] == "mound appeared" and hits[0]["dz"] >= 3 * hits[0]["lod"]
