@@ -26,9 +26,12 @@ def main() -> None:
         db = tdb.open(Path(tmp) / "ttp.tdb", create=True)
         for name, cloud in clouds.items():
             ingest(cloud, db, version=name)
-        t0 = time.perf_counter()
-        found = detect(db, "2015", "2019")
-        diff_s = time.perf_counter() - t0
+        seconds = []
+        for _ in range(3):  # median of three: the first pays one-time work (filters, fill weights)
+            t0 = time.perf_counter()
+            found = detect(db, "2015", "2019")
+            seconds.append(time.perf_counter() - t0)
+        diff_s = float(np.median(seconds))
         dense = {name: survey(cloud).dtm for name, cloud in clouds.items()}
         xg, yg, _ = db.tiles("2015", level=2)
     qx, qy = tile_nodes(xg, yg, 2)

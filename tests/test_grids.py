@@ -51,13 +51,19 @@ def test_two_passes_fill_tiles_known_at_their_corners_with_the_plane(a, b, c):
 
 
 @settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 10_000), holes=st.floats(0.0, 1.0), passes=st.integers(1, 3), size=st.integers(2, 6))
-def test_fill_lines_stack_equals_filling_each_raster(seed, holes, passes, size):
+@given(
+    seed=st.integers(0, 10_000),
+    holes=st.floats(0.0, 1.0),
+    passes=st.integers(1, 3),
+    size=st.integers(2, 6),
+    kinds=st.integers(1, 100),
+)
+def test_fill_lines_stack_equals_filling_each_raster(seed, holes, passes, size, kinds):
     rng = np.random.default_rng(seed)
     stack = rng.normal(size=(200, size, size)) * 10
-    # few patterns, as in a database: holes drawn from a small set of masks
-    masks = rng.random((6, size, size)) < holes
-    stack[masks[rng.integers(0, 6, 200)]] = np.nan
+    # holes drawn from a set of masks: few (patterns shared, weights used) or many (rare, filled one by one)
+    masks = rng.random((kinds, size, size)) < holes
+    stack[masks[rng.integers(0, kinds, 200)]] = np.nan
     cells = rng.choice(size * size, size=min(4, size * size), replace=False)
     expected = fill_lines(stack, passes=passes).reshape(200, -1)[:, cells]
     got = fill_lines_stack(stack, passes=passes, cells=cells)

@@ -78,6 +78,7 @@ def fill_linear(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
 # database's tiles share a few hundred patterns, so repeated queries need not work them out again.
 _WEIGHTS: dict[tuple[int, int, int, bytes, int], NDArray[np.float64]] = {}
 _WEIGHTS_MAX = 100_000
+MIN_SHARED = 8  # rasters of one pattern for its weights to be worth working out
 
 
 def _pattern_weights(
@@ -86,6 +87,8 @@ def _pattern_weights(
     """(P, rows·cols, len(cells)): for each hole pattern (bit k set: cell k known), the weight of
     each known cell in each filled output cell (NaN where the fill does not reach)."""
     n = rows * cols
+    if len(patterns) == 0:
+        return np.zeros((0, n, len(cells)))
     tag = (rows, cols, passes, cells.tobytes())
     missing = np.array([p for p in patterns.tolist() if (*tag, p) not in _WEIGHTS], np.int64)
     if len(missing):
@@ -109,9 +112,9 @@ def fill_lines_stack(
     indices ``cells`` (all cells if None): an array (T, len(cells)).
 
     For a given pattern of holes the fill is linear in the known values: its weights
-    are worked out once per pattern (by filling unit rasters) and applied to every
-    raster of that pattern. Tiles of a terrain database share a few hundred patterns,
-    so this is many times faster than filling each raster.
+    are worked out once per pattern (by filling unit rasters), kept for later calls, and
+    applied to every raster of that pattern. Most tiles of a terrain database share a
+    few hundred patterns, so this is many times faster than filling each raster.
     """
     count, rows, cols = stack.shape
     n = rows * cols
@@ -121,14 +124,26 @@ def fill_lines_stack(
         return np.asarray(fill_lines(stack, passes=passes).reshape(count, n)[:, cells], np.float64)
     known = ~np.isnan(flat)
     code = known.astype(np.int64) @ (np.int64(1) << np.arange(n, dtype=np.int64))
-    patterns, inverse = np.unique(code, return_inverse=True)
-    weights = _pattern_weights(patterns, rows, cols, passes, cells)
+    patterns, inverse, counts = np.unique(code, return_inverse=True, return_counts=True)
+    tag = (rows, cols, passes, cells.tobytes())
+    # Weights pay off for a pattern shared by several rasters (or already worked out);
+    # the long tail of rare patterns is filled raster by raster.
+    shared = (counts >= MIN_SHARED) | np.array([(*tag, int(p)) in _WEIGHTS for p in patterns.tolist()], bool)
     out = np.full((count, len(cells)), np.nan)
+    rare = np.flatnonzero(~shared[inverse])
+    if len(rare):
+        out[rare] = fill_lines(stack[rare], passes=passes).reshape(len(rare), n)[:, cells]
+    use = np.flatnonzero(shared)
+    weights = _pattern_weights(patterns[use], rows, cols, passes, cells)
     values = np.where(known, flat, 0.0)
-    order = np.argsort(inverse, kind="stable")
-    bounds = np.cumsum(np.bincount(inverse, minlength=len(patterns)))[:-1]
-    for p, members in enumerate(np.split(order, bounds)):
+    slot = np.full(len(patterns), -1)
+    slot[use] = np.arange(len(use))
+    rank = slot[inverse]
+    order = np.argsort(rank, kind="stable")
+    bounds = np.searchsorted(rank[order], np.arange(len(use) + 1))
+    for k, p in enumerate(use):
         if patterns[p]:  # a raster with no known cell stays NaN
+            members = order[bounds[k] : bounds[k + 1]]
             # einsum, not @: BLAS threads cost more than they save on (n × 25) · (25 × 9)
-            out[members] = np.einsum("tn,nm->tm", values[members], weights[p])
+            out[members] = np.einsum("tn,nm->tm", values[members], weights[k])
     return out
