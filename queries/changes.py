@@ -65,6 +65,34 @@ def _lattice(db: Database, version: str, level: int, xg: NDArray[np.int64], yg: 
     return node_lattice(x, y, z, level)
 
 
+def _ranges(n: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Lowest and highest stored node along the first axis (+inf and −inf where none)."""
+    known = ~np.isnan(n)
+    return np.where(known, n, np.inf).min(axis=0), np.where(known, n, -np.inf).max(axis=0)
+
+
+def _may_move(na: NDArray[np.float64], nb: NDArray[np.float64], lod: float) -> NDArray[np.intp]:
+    """Per tile, at most how many of its 3 × 3 nodes can move beyond ``lod`` (stored nodes
+    ``na``, ``nb`` of the two versions), without rebuilding the surfaces.
+
+    The rebuilt surface keeps stored corners as they are; an edge middle is a line between
+    stored nodes of its own edge, and the centre a convex mix of the tile's stored nodes.
+    So a corner counts when it moved, an edge middle when the ranges of its edge's stored
+    nodes allow it, and the centre when the tile's ranges do.
+    """
+    last = SUBGRID - 1
+    # Tiles last: every reduction below runs across whole rows of tiles.
+    a, b = (np.ascontiguousarray(np.moveaxis(n, 0, -1)) for n in (na, nb))
+    with np.errstate(invalid="ignore"):
+        count = (np.abs(b[::last, ::last] - a[::last, ::last]) > lod).sum(axis=(0, 1))  # NaN: never
+        for edge in ((0, slice(None)), (last, slice(None)), (slice(None), 0), (slice(None), last)):
+            (lo_a, hi_a), (lo_b, hi_b) = _ranges(a[edge]), _ranges(b[edge])
+            count += np.maximum(hi_b - lo_a, hi_a - lo_b) > lod  # inf − inf (no stored node): not counted
+        (lo_a, hi_a), (lo_b, hi_b) = _ranges(a.reshape(-1, len(na))), _ranges(b.reshape(-1, len(nb)))
+        count += np.maximum(hi_b - lo_a, hi_a - lo_b) > lod
+    return np.asarray(count, np.intp)
+
+
 def _surface(nodes: NDArray[np.float64]) -> NDArray[np.float64]:
     """Heights of the rebuilt surface at the 3 × 3 nodes of each tile (NaN: no data).
 
@@ -104,15 +132,7 @@ def detect(
     lod = level_of_detection(db, before, after)
     lattices = {name: _lattice(db, name, level, xg, yg) for name in (before, after)}
     na, nb = lattices[before].tile_nodes(xg, yg), lattices[after].tile_nodes(xg, yg)
-    # Lines between stored nodes stay within their range, so a tile whose two ranges
-    # lie within the LoD of each other cannot move beyond it: skip its surfaces.
-    with np.errstate(invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # a tile with no stored node
-        flat_a, flat_b = na.reshape(len(na), -1), nb.reshape(len(nb), -1)
-        lo_a, hi_a = np.fmin.reduce(flat_a, axis=1), np.fmax.reduce(flat_a, axis=1)
-        lo_b, hi_b = np.fmin.reduce(flat_b, axis=1), np.fmax.reduce(flat_b, axis=1)
-        may = np.maximum(hi_b - lo_a, hi_a - lo_b) > lod
-    keep = np.flatnonzero(may)
+    keep = np.flatnonzero(_may_move(na, nb, lod) >= 3)
     if len(keep) == 0:
         return []
     xg, yg, c1, c2 = xg[keep], yg[keep], c1[keep], c2[keep]

@@ -8,12 +8,14 @@ from dataclasses import replace
 import numpy as np
 import shapely
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import tdb
 from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
 from ingest.synth.scene import Feature
-from queries.changes import detect, level_of_detection
+from queries.changes import _may_move, _surface, detect, level_of_detection
 from tdb.cli import main
 
 
@@ -83,3 +85,23 @@ def test_a_small_but_strong_change_is_reported(tmp_path):
     ]
     assert len(hits) == 1 and hits[0]["tiles"] < 8
     assert hits[0]["kind"] == "mound appeared" and hits[0]["dz"] >= 3 * hits[0]["lod"]
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), holes=st.floats(0.0, 0.95), lod=st.floats(0.05, 1.0))
+def test_the_gate_never_skips_a_tile_that_moves(seed, holes, lod):
+    # _may_move bounds, without rebuilding the surfaces, how many of a tile's nine nodes can move
+    # beyond the LoD: it must never be below the count the rebuilt surfaces give.
+    rng = np.random.default_rng(seed)
+    na, nb = (rng.normal(0, 0.5, (300, 5, 5)) for _ in range(2))
+    for n in (na, nb):
+        n[rng.random(n.shape) < holes] = np.nan
+        corners = n[:, ::4, ::4]
+        stored = rng.random(corners.shape) < 0.9  # corners are mostly stored
+        corners[stored] = rng.normal(0, 0.5, stored.sum())
+    surfaces = _surface(np.concatenate([na, nb]))
+    with np.errstate(invalid="ignore"):
+        moved = (np.abs(surfaces[300:] - surfaces[:300]) > lod).sum(axis=1)
+    bound = _may_move(na, nb, lod)
+    assert (moved <= bound).all()
+    assert (bound <= 9).all()
