@@ -11,7 +11,6 @@ is typed by the filters that match in one version and not the other.
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
 import numpy as np
