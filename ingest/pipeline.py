@@ -51,13 +51,19 @@ def survey(
 ) -> Survey:
     """Derive the terrain model of one cloud (pure: nothing is written).
 
-    ``stage(name)`` is called as each step starts (for progress display).
+    ``stage(name)`` is called as each step starts (for progress display), and during the
+    ground filter with ``"ground filter (k/n tiles)"`` as Sohn–Dowman's tiles finish.
     """
     report = stage or (lambda _name: None)
     report("units")
     metric = to_metres(cloud, assume_metres=assume_metres)
     report("ground filter")
-    ground = classify_ground(metric, method=parse(GroundMethod, method))
+
+    def tiles(done: int, total: int) -> None:
+        if total > 1:
+            report(f"ground filter ({done}/{total} tiles)")
+
+    ground = classify_ground(metric, method=parse(GroundMethod, method), progress=tiles)
     report("dense model")
     gxyz = metric.xyz[ground]
     dtm = dense_model(gxyz, resolution=resolution, crs=metric.crs)
@@ -102,7 +108,8 @@ def ingest(
 
     def stage(name: str) -> None:
         bar.set_description(name)
-        bar.update(0 if name == "read" else 1)
+        # a step's own progress ("ground filter (3/9 tiles)") renames the bar, not advances it
+        bar.update(0 if name == "read" or name.endswith(" tiles)") else 1)
 
     stage("read")
     cloud = source if isinstance(source, PointCloud) else read(source, crs=crs)
