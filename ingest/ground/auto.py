@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from ingest.ground.earthworks import elongated_objects
 from ingest.ground.fill import fill_linear
 from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of
 from ingest.ground.morphology import progressive_opening
@@ -44,6 +45,10 @@ class AutoParams:
     pit_window: float = 8.0  # widest low-outlier cluster (m, radius)
     pit_slope: float = 3.0  # pit walls steeper than this, beyond pit_depth, are not terrain
     pit_depth: float = 2.0
+    earthwork_length: float = 15.0  # long, narrow, low objects are terrain (ingest.ground.earthworks)
+    earthwork_ratio: float = 4.0
+    earthwork_width: float = 8.0
+    earthwork_height: float = 2.5
 
 
 def ground_surface(
@@ -81,15 +86,48 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
     current = np.where(~objects & ~pits, idx, -1)
     at_points = grid.corner_sampler(pts[:, :2])
     is_ground = np.zeros(len(pts), bool)
-    for _ in range(p.refinements + 1):
+    earthworks_done = False
+    for step in range(p.refinements + 2):
         surface, slope_map = ground_surface(grid, pts, current)
         h = pts[:, 2] - at_points(surface)
         before = is_ground
         is_ground = (h <= p.threshold + p.slope_scale * at_points(slope_map)) & (h >= -p.below)
-        if np.count_nonzero(before != is_ground) < p.settled * len(pts):
-            break
         # The next surface rests on the lowest ground point per cell: noise and
         # low clutter among the accepted points would otherwise lift it.
         current = cells.lowest(is_ground)
+        if np.count_nonzero(before != is_ground) >= p.settled * len(pts) and step < p.refinements:
+            continue
+        if earthworks_done:
+            break
+        # Settled: steep-sided ridges, dikes and embankment crests are still cut off.
+        # Long, narrow, low groups of object cells are terrain; one more pass takes them in.
+        earthworks_done = True
+        earthworks = _earthworks(grid, surface, zmin, idx, current, p)
+        if not earthworks.any():
+            break
+        current = np.where(earthworks, idx, current)
     ground[keep[is_ground]] = True
     return ground
+
+
+def _earthworks(
+    grid: Grid,
+    surface: NDArray[np.floating[Any]],
+    zmin: NDArray[np.float64],
+    lowest: NDArray[np.intp],
+    current: NDArray[np.intp],
+    p: AutoParams,
+) -> NDArray[np.bool_]:
+    """Cells of long, narrow, low objects (:func:`ingest.ground.earthworks.elongated_objects`)."""
+    objects = (lowest >= 0) & (current != lowest)  # cells whose lowest point is not ground
+    centre = 0.25 * (surface[:-1, :-1] + surface[1:, :-1] + surface[:-1, 1:] + surface[1:, 1:])
+    height = np.where(objects, zmin - centre, 0.0)
+    return elongated_objects(
+        objects,
+        height,
+        cell=grid.cell,
+        min_length=p.earthwork_length,
+        min_ratio=p.earthwork_ratio,
+        max_width=p.earthwork_width,
+        max_height=p.earthwork_height,
+    )

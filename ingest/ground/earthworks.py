@@ -1,0 +1,56 @@
+"""Earthworks the ground filter would cut: long, narrow, low objects on the ground.
+
+A ridge with steep sides, a dike or the crest of an embankment rises out of the
+terrain too steeply for the opening windows and the slope-scaled threshold, so its
+top is taken for an object, and not always the same way in two surveys of it.
+Buildings, cars and trees are not long and narrow and low at once: a connected
+group of object cells that is (by the moments of its cells) at least
+``min_length`` long, ``min_ratio`` times as long as wide, at most ``max_width``
+wide and at most ``max_height`` above the ground surface is terrain.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+
+def elongated_objects(
+    objects: NDArray[np.bool_],
+    height: NDArray[np.float64],
+    *,
+    cell: float,
+    min_length: float = 15.0,
+    min_ratio: float = 4.0,
+    max_width: float = 8.0,
+    max_height: float = 2.5,
+) -> NDArray[np.bool_]:
+    """Cells of the 8-connected groups of ``objects`` that are long, narrow and low.
+
+    Parameters
+    ----------
+    objects : (rows, cols) cells whose lowest point is not ground.
+    height : (rows, cols) height (m) of each cell's lowest point above the ground surface.
+    cell : cell size (m).
+    min_length, min_ratio, max_width, max_height : the shape a group must have (m, length / width, m, m).
+        Length and width are those of the rectangle with the group's second moments.
+    """
+    labels, n = ndimage.label(objects, structure=np.ones((3, 3)))
+    if n == 0:
+        return np.zeros(objects.shape, bool)
+    r, c = np.nonzero(labels)
+    lab = labels[r, c]
+    count = np.bincount(lab, minlength=n + 1).astype(np.float64)
+    count[0] = 1.0
+    mean_c, mean_r = np.bincount(lab, c, n + 1) / count, np.bincount(lab, r, n + 1) / count
+    dc, dr = c - mean_c[lab], r - mean_r[lab]
+    scc, srr, scr = (np.bincount(lab, w, n + 1) / count for w in (dc * dc, dr * dr, dc * dr))
+    half, gap = (scc + srr) / 2, np.sqrt(np.maximum(((scc - srr) / 2) ** 2 + scr**2, 0.0))
+    # A uniform rectangle of side s has variance s²/12 along it; a cell adds one cell of extent.
+    length = (np.sqrt(12 * (half + gap)) + 1) * cell
+    width = (np.sqrt(12 * np.maximum(half - gap, 0.0)) + 1) * cell
+    top = np.asarray(ndimage.maximum(height, labels, index=np.arange(n + 1)), np.float64)
+    ok = (length >= min_length) & (length >= min_ratio * width) & (width <= max_width) & (top <= max_height)
+    ok[0] = False
+    return np.asarray(ok[labels], bool)

@@ -1,0 +1,50 @@
+"""Long, narrow, low objects are terrain; buildings, blocks and tall strips are not."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ingest.ground.auto import auto_ground
+from ingest.ground.earthworks import elongated_objects
+from ingest.synth import make_scene, sample
+from ingest.synth.scene import Feature
+from ingest.synth.surface import feature_offset
+from tdb.cloud import GROUND
+
+
+@settings(max_examples=30, deadline=None)
+@given(angle=st.floats(0, np.pi), length=st.integers(20, 60), width=st.integers(1, 4), height=st.floats(0.3, 2.4))
+def test_a_long_narrow_low_strip_is_an_earthwork_at_any_bearing(angle, length, width, height):
+    rows = cols = 90
+    r, c = np.mgrid[0:rows, 0:cols] - 45.0
+    along = c * np.cos(angle) + r * np.sin(angle)
+    across = -c * np.sin(angle) + r * np.cos(angle)
+    strip = (np.abs(along) <= length / 2) & (np.abs(across) <= width / 2)
+    found = elongated_objects(strip, np.where(strip, height, 0.0), cell=1.0)
+    assert (found == strip).all()
+    # The same strip standing higher than max_height is an object (a building's long wing, a train).
+    assert not elongated_objects(strip, np.where(strip, 6.0, 0.0), cell=1.0).any()
+
+
+def test_blocks_short_strips_and_wide_strips_are_objects():
+    grid = np.zeros((60, 60), bool)
+    grid[5:15, 5:15] = True  # a building, 10 × 10 m
+    grid[30:32, 5:15] = True  # a car-sized strip, 10 m long
+    grid[40:52, 10:50] = True  # 40 × 12 m: too wide
+    assert not elongated_objects(grid, np.where(grid, 1.0, 0.0), cell=1.0).any()
+
+
+def test_the_default_filter_keeps_a_steep_ridge_it_used_to_cut():
+    # A flat-topped ridge 1.5 m high and 5 m wide (the U profile) with sides as steep as 66°:
+    # the opening windows take its top for an object; as an earthwork it stays ground.
+    scene = make_scene(seed=1, size=300)
+    ridge = next(f for f in scene.features if f.kind == "ridge" and f.profile == "U" and f.size > 1.4)
+    assert isinstance(ridge, Feature)
+    cloud = sample(scene, density=4, seed=1)
+    top = (cloud.classification == GROUND) & (
+        feature_offset(ridge, cloud.xyz[:, 0], cloud.xyz[:, 1]) > 0.5 * ridge.size
+    )
+    assert top.sum() > 100
+    assert auto_ground(cloud.xyz)[top].mean() > 0.9
