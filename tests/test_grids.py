@@ -73,6 +73,17 @@ def test_fill_lines_stack_equals_filling_each_raster(seed, holes, passes, size, 
     np.testing.assert_allclose(fill_lines_stack(stack, passes=passes, cells=cells), expected, atol=1e-9)
 
 
+def test_fill_nearest_reuses_indices_not_values():
+    rng = np.random.default_rng(9)
+    holes = rng.random((40, 50)) < 0.3
+    for _ in range(3):  # same holes, new values: each raster is filled from its own cells
+        raster = np.where(holes, np.nan, rng.normal(size=holes.shape))
+        ri, ci = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
+        np.testing.assert_array_equal(fill_nearest(raster), raster[ri, ci])
+    other = np.where(rng.random((40, 50)) < 0.5, np.nan, 1.0)  # new holes: worked out again
+    assert not np.isnan(fill_nearest(other)).any()
+
+
 def test_fill_nearest_takes_the_nearest_value_and_refuses_an_empty_raster():
     raster = np.full((5, 5), np.nan)
     raster[0, 0], raster[4, 4] = 1.0, 2.0

@@ -10,6 +10,11 @@ from scipy import ndimage
 
 from tdb.errors import InputError
 
+# The last hole mask and its nearest-cell indices: the default filter's refinement passes
+# fill rasters whose holes are mostly the same, and the distance transform is the cost.
+_NEAREST: list[tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]]] = []
+_NEAREST_MAX = 16_000_000
+
 
 def fill_nearest(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
     """Replace NaN cells by the value of the nearest filled cell."""
@@ -18,7 +23,12 @@ def fill_nearest(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]
         return raster
     if holes.all():
         raise InputError("raster has no data to fill from")
-    ri, ci = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
+    if _NEAREST and _NEAREST[0][0].shape == holes.shape and np.array_equal(_NEAREST[0][0], holes):
+        _, ri, ci = _NEAREST[0]
+    else:
+        ri, ci = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
+        # kept only for rasters of moderate size (at most ~150 MB of indices)
+        _NEAREST[:] = [(holes, ri.astype(np.int32), ci.astype(np.int32))] if holes.size <= _NEAREST_MAX else []
     return raster[ri, ci]
 
 
