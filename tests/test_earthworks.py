@@ -15,7 +15,7 @@ from tdb.cloud import GROUND
 
 
 @settings(max_examples=30, deadline=None)
-@given(angle=st.floats(0, np.pi), length=st.integers(20, 60), width=st.integers(1, 4), height=st.floats(0.3, 2.4))
+@given(angle=st.floats(0, np.pi), length=st.integers(25, 60), width=st.integers(3, 4), height=st.floats(0.3, 2.4))
 def test_a_long_narrow_low_strip_is_an_earthwork_at_any_bearing(angle, length, width, height):
     rows = cols = 90
     r, c = np.mgrid[0:rows, 0:cols] - 45.0
@@ -28,12 +28,16 @@ def test_a_long_narrow_low_strip_is_an_earthwork_at_any_bearing(angle, length, w
     assert not elongated_objects(strip, np.where(strip, 6.0, 0.0), cell=1.0).any()
 
 
-def test_blocks_short_strips_and_wide_strips_are_objects():
+def test_blocks_short_strips_wide_strips_and_walls_are_objects():
     grid = np.zeros((60, 60), bool)
     grid[5:15, 5:15] = True  # a building, 10 × 10 m
     grid[30:32, 5:15] = True  # a car-sized strip, 10 m long
     grid[40:52, 10:50] = True  # 40 × 12 m: too wide
+    grid[20, 20:58] = True  # a wall or a hedge one cell wide, 38 m long: too narrow to follow
     assert not elongated_objects(grid, np.where(grid, 1.0, 0.0), cell=1.0).any()
+    # the same wall three cells wide is an earthwork (a dike)
+    grid[19:22, 20:58] = True
+    assert elongated_objects(grid, np.where(grid, 1.0, 0.0), cell=1.0)[20, 20:58].all()
 
 
 def test_the_default_filter_keeps_a_steep_ridge_it_used_to_cut():

@@ -47,6 +47,7 @@ class AutoParams:
     pit_depth: float = 2.0
     earthwork_length: float = 15.0  # long, narrow, low objects are terrain (ingest.ground.earthworks)
     earthwork_ratio: float = 4.0
+    earthwork_min_width: float = 2.5
     earthwork_width: float = 8.0
     earthwork_height: float = 2.5
 
@@ -128,6 +129,7 @@ def _earthworks(
         cell=grid.cell,
         min_length=p.earthwork_length,
         min_ratio=p.earthwork_ratio,
+        min_width=p.earthwork_min_width,
         max_width=p.earthwork_width,
         max_height=p.earthwork_height,
     )

@@ -5,8 +5,11 @@ terrain too steeply for the opening windows and the slope-scaled threshold, so i
 top is taken for an object, and not always the same way in two surveys of it.
 Buildings, cars and trees are not long and narrow and low at once: a connected
 group of object cells that is (by the moments of its cells) at least
-``min_length`` long, ``min_ratio`` times as long as wide, at most ``max_width``
-wide and at most ``max_height`` above the ground surface is terrain.
+``min_length`` long, ``min_ratio`` times as long as wide, between ``min_width``
+and ``max_width`` wide and at most ``max_height`` above the ground surface is
+terrain. The least width keeps out what a 1 m grid cannot follow: walls (their
+cells alternate between ground and wall, so only pieces of them would be kept,
+and not the same pieces in two surveys), hedges and rows of cars.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ def elongated_objects(
     cell: float,
     min_length: float = 15.0,
     min_ratio: float = 4.0,
+    min_width: float = 2.5,
     max_width: float = 8.0,
     max_height: float = 2.5,
 ) -> NDArray[np.bool_]:
@@ -33,7 +37,8 @@ def elongated_objects(
     objects : (rows, cols) cells whose lowest point is not ground.
     height : (rows, cols) height (m) of each cell's lowest point above the ground surface.
     cell : cell size (m).
-    min_length, min_ratio, max_width, max_height : the shape a group must have (m, length / width, m, m).
+    min_length, min_ratio, min_width, max_width, max_height : the shape a group must have (m,
+        length / width, m, m, m).
         Length and width are those of the rectangle with the group's second moments.
     """
     labels, n = ndimage.label(objects, structure=np.ones((3, 3)))
@@ -51,6 +56,7 @@ def elongated_objects(
     length = (np.sqrt(12 * (half + gap)) + 1) * cell
     width = (np.sqrt(12 * np.maximum(half - gap, 0.0)) + 1) * cell
     top = np.asarray(ndimage.maximum(height, labels, index=np.arange(n + 1)), np.float64)
-    ok = (length >= min_length) & (length >= min_ratio * width) & (width <= max_width) & (top <= max_height)
+    ok = (length >= min_length) & (length >= min_ratio * width) & (width >= min_width) & (width <= max_width)
+    ok &= top <= max_height
     ok[0] = False
     return np.asarray(ok[labels], bool)
