@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.ground.fill import fill_lines
-from ingest.tiles import LEVELS, NodeGrid, tile_key
+from ingest.tiles import LEVELS, NodeGrid, TileIndex
 from tdb.categories import NO_DATA, feature_nodes
 
 TOLERANCE = 0.05  # m: a node rebuilt this close to the dense model needs no point of its own
@@ -123,15 +123,8 @@ def refine(
 
 def _neighbours(ti: NDArray[np.int64], tj: NDArray[np.int64]) -> NDArray[np.intp]:
     """(T, 4) index of each tile's east, north, west and south neighbour; −1 where none."""
-    key = tile_key(ti, tj)
-    order = np.argsort(key)
-    out = np.full((len(ti), 4), -1, np.intp)
-    for k, (di, dj) in enumerate(((1, 0), (0, 1), (-1, 0), (0, -1))):
-        want = tile_key(ti + di, tj + dj)
-        pos = np.clip(np.searchsorted(key, want, sorter=order), 0, len(key) - 1)
-        hit = key[order[pos]] == want
-        out[hit, k] = order[pos[hit]]
-    return out
+    index = TileIndex(ti, tj)
+    return np.column_stack([index.find(ti + di, tj + dj) for di, dj in ((1, 0), (0, 1), (-1, 0), (0, -1))])
 
 
 def _add(

@@ -24,6 +24,26 @@ def tile_key(i: NDArray[np.integer], j: NDArray[np.integer]) -> NDArray[np.int64
     return np.asarray(i, np.int64) * (1 << 32) + (np.asarray(j, np.int64) & 0xFFFFFFFF)
 
 
+class TileIndex:
+    """Position of tiles by their integer indices (i, j): sorted once, looked up many times."""
+
+    def __init__(self, i: NDArray[np.integer], j: NDArray[np.integer]) -> None:
+        key = tile_key(i, j)
+        self._order = np.argsort(key)
+        self._sorted = key[self._order]
+
+    def find(self, i: NDArray[np.integer], j: NDArray[np.integer]) -> NDArray[np.intp]:
+        """Index of the tile (i, j) among those indexed; −1 where there is none."""
+        want = tile_key(i, j)
+        out = np.full(len(want), -1, np.intp)
+        if len(self._sorted) == 0:
+            return out
+        pos = np.minimum(np.searchsorted(self._sorted, want), len(self._sorted) - 1)
+        hit = self._sorted[pos] == want
+        out[hit] = self._order[pos[hit]]
+        return out
+
+
 @dataclass(frozen=True)
 class NodeGrid:
     """Heights at nodes x = ix0·s + i·s, y = iy0·s + j·s (rows south to north); NaN = no data."""

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ingest.tiles import tile_key
+from ingest.tiles import TileIndex
 from tdb.categories import FEATURE_NAMES, SUBPART_UV, all_categories
 from tdb.errors import FilterError
 
@@ -172,16 +172,12 @@ def components(
     if len(sel) == 0:
         return []
     ti, tj = np.asarray(xg)[sel] // level, np.asarray(yg)[sel] // level
-    keys = tile_key(ti, tj)
-    order = np.argsort(keys)
-    sorted_keys = keys[order]
+    index = TileIndex(ti, tj)
     rows, cols = [], []
-    links = LINKS if flt.join == "lines" else _touching(flt.gap)
-    for (dx, dy), _ in links.items():
-        wanted = tile_key(ti + dx, tj + dy)
-        pos = np.minimum(np.searchsorted(sorted_keys, wanted), len(keys) - 1)
-        k = np.flatnonzero(sorted_keys[pos] == wanted)
-        j = order[pos[k]]
+    for dx, dy in LINKS if flt.join == "lines" else _touching(flt.gap):
+        other = index.find(ti + dx, tj + dy)
+        k = np.flatnonzero(other >= 0)
+        j = other[k]
         if flt.join == "lines":
             meet = _link_tables()[(dx, dy)][code[sel[k]], code[sel[j]]]
             k, j = k[meet], j[meet]

@@ -63,15 +63,13 @@ def match_tiles(
     flt: Filter,
     *,
     level: int,
-    among: NDArray[np.bool_] | None = None,
     shapes: bool = True,
 ) -> list[Match]:
-    """The objects ``flt`` finds among the tiles (``among``: only these may join), with
-    ``lattice`` holding the stored points around them. Without ``shapes`` the matches
+    """The objects ``flt`` finds among the tiles, with ``lattice`` holding the stored points
+    around them. Without ``shapes`` the matches
     carry their tiles and measure only (empty geometry, length NaN): what typing needs."""
     lv = level
-    chosen = np.isin(FEATURES[code], list(flt.features))
-    cand = np.flatnonzero(chosen if among is None else chosen & among)
+    cand = np.flatnonzero(np.isin(FEATURES[code], list(flt.features)))
     if len(cand) == 0:
         return []
     ex, ey, relief = tile_relief(lattice, xg[cand], yg[cand], measure=flt.measure, reach=REACH_TILES * lv)

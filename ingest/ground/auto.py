@@ -101,7 +101,7 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
         if earthworks_done:
             break
         # Settled: steep-sided ridges, dikes and embankment crests are still cut off.
-        # Long, narrow, low groups of object cells are terrain; one more pass takes them in.
+        # Long, narrow, low groups of object cells are terrain; the passes go on with them.
         earthworks_done = True
         earthworks = _earthworks(grid, surface, zmin, idx, current, p)
         if not earthworks.any():
