@@ -30,6 +30,19 @@ from tdb.errors import FilterError
 FEATURES = np.array([c.feature for c in all_categories()] + [-1] * (256 - len(all_categories())))
 
 
+def _break_line(orientation: tuple[int, int] | None) -> tuple[float, float]:
+    if orientation is None or orientation[0] == orientation[1]:  # no line: a plane, a peak, a pit
+        return (np.nan, np.nan)
+    d = SUBPART_UV[orientation[1]] - SUBPART_UV[orientation[0]]
+    return tuple(d / np.linalg.norm(d))
+
+
+# Unit direction of each code's break line in plan (NaN for codes without one).
+BREAK_LINES = np.array(
+    [_break_line(c.orientation) for c in all_categories()] + [(np.nan, np.nan)] * (256 - len(all_categories()))
+)
+
+
 @dataclass(frozen=True)
 class Filter:
     name: str

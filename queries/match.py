@@ -7,7 +7,7 @@ import shapely
 from numpy.typing import NDArray
 
 from queries.centreline import centrelines, elongation
-from queries.filters import FEATURES, Filter, Match, builtin_filters, components, tile_lines
+from queries.filters import BREAK_LINES, FEATURES, Filter, Match, builtin_filters, components, tile_lines
 from queries.relief import NodeLattice, node_lattice, tile_relief
 from tdb.database import Database
 from tdb.errors import FilterError
@@ -72,7 +72,9 @@ def match_tiles(
     cand = np.flatnonzero(np.isin(FEATURES[code], list(flt.features)))
     if len(cand) == 0:
         return []
-    ex, ey, relief = tile_relief(lattice, xg[cand], yg[cand], measure=flt.measure, reach=REACH_TILES * lv)
+    ex, ey, relief = tile_relief(
+        lattice, xg[cand], yg[cand], measure=flt.measure, reach=REACH_TILES * lv, along=BREAK_LINES[code[cand]]
+    )
     with np.errstate(invalid="ignore"):
         ok = ~(relief < TILE_SHARE * flt.min_measure)  # NaN (terrain beside unknown) is kept
     keep, relief, ex, ey = cand[ok], relief[ok], ex[ok], ey[ok]

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 SUBGRID = 5  # nodes per tile side (must match ingest.pyramid.SUBGRID)
+_COS45 = float(np.sqrt(0.5))
 _DIRS = np.array([[1.0, 0.0], [0.0, 1.0], [np.sqrt(0.5), np.sqrt(0.5)], [np.sqrt(0.5), -np.sqrt(0.5)]])
 
 
@@ -120,6 +121,7 @@ def two_sided_relief(
     *,
     measure: str,
     reach: float,
+    along: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """Depth (``measure="depth"``) or height of points (x, y, z) below / above the terrain on both sides.
 
@@ -128,6 +130,10 @@ def two_sided_relief(
     point's relief the largest over the directions (NaN where z or the terrain
     beside it is unknown). ``measure="step"`` (an embankment's side) is the
     largest difference between the terrain on the two sides.
+
+    ``along`` (N, 2) gives each point's break line direction (NaN: none): directions
+    closer than 45° to it are not read. Along its own line a ditch's rim or a wall's
+    foot has the feature in the cells beside it and would seem to stand out.
     """
     sign = -1.0 if measure == "depth" else 1.0
     best = np.full(len(x), -np.inf)
@@ -136,13 +142,22 @@ def two_sided_relief(
         b = lattice.corners(x - reach * dx, y - reach * dy)
         with np.errstate(invalid="ignore"):
             rel = np.abs(a - b) if measure == "step" else np.minimum(sign * (z - a), sign * (z - b))
+        if along is not None:
+            with np.errstate(invalid="ignore"):
+                rel = np.where(np.abs(along @ np.array([dx, dy])) > _COS45 + 1e-9, -np.inf, rel)
         best = np.fmax(best, rel)
     best[~np.isfinite(best)] = np.nan
     return best
 
 
 def tile_relief(
-    lattice: NodeLattice, xg: NDArray[np.int64], yg: NDArray[np.int64], *, measure: str, reach: float
+    lattice: NodeLattice,
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    *,
+    measure: str,
+    reach: float,
+    along: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Each tile's extreme node (x, y) and its two-sided relief.
 
@@ -153,7 +168,7 @@ def tile_relief(
     best: tuple[NDArray[np.float64], ...] | None = None
     for detrend in (False,) if measure == "step" else (False, True):
         x, y, z = extreme_nodes(lattice, xg, yg, measure=measure, detrend=detrend)
-        rel = two_sided_relief(lattice, x, y, z, measure=measure, reach=reach)
+        rel = two_sided_relief(lattice, x, y, z, measure=measure, reach=reach, along=along)
         if best is None:
             best = (x, y, rel)
             continue

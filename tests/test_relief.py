@@ -9,7 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from queries.centreline import centreline, centrelines, elongation
+from queries.filters import BREAK_LINES
 from queries.relief import node_lattice, tile_relief, two_sided_relief
+from tdb.categories import PEAK, PIT, SUBPART_UV, all_categories
 
 LEVEL = 2
 S = LEVEL / 4
@@ -74,6 +76,39 @@ def test_a_step_has_no_depth_nor_height_but_a_step_measure(measure):
     _, yg, step = relief(fn, "step")
     near = np.abs(yg + LEVEL / 2 - 20) <= 2
     assert np.allclose(step[near], 1.0)
+
+
+@pytest.mark.parametrize("measure", ["depth", "height"])
+def test_along_a_narrow_trench_its_rim_is_no_ridge_across_its_break_line(measure):
+    # A 1 m wide, 1.3 m deep trench (or wall) along y = 20; a node on the plane 1 m off its axis.
+    # Along x the cells beside the node hold corners in the trench, so read along the rim the
+    # terrain "beside" it sinks (rises) and the rim seems to stand out; across it, it does not.
+    sign = 1.0 if measure == "height" else -1.0
+
+    def fn(x, y):
+        return 100 - sign * 1.3 * (np.abs(y - 20) <= 0.5)
+
+    lat = lattice_of(fn)
+    x, y, z = np.array([20.0]), np.array([19.0]), np.array([100.0])
+    every_way = two_sided_relief(lat, x, y, z, measure=measure, reach=4)
+    across = two_sided_relief(lat, x, y, z, measure=measure, reach=4, along=np.array([[1.0, 0.0]]))
+    assert every_way[0] > 0.3  # a 0.3 m filter would take the rim
+    assert abs(across[0]) < 1e-9
+    no_line = two_sided_relief(lat, x, y, z, measure=measure, reach=4, along=np.full((1, 2), np.nan))
+    assert no_line[0] == every_way[0]  # a peak or a plane has no line: every direction is read
+
+
+def test_break_lines_run_between_the_sub_parts_of_each_category():
+    cats = all_categories()
+    for c in cats:
+        d = BREAK_LINES[c.code]
+        if c.orientation is None or c.feature in (PEAK, PIT):
+            assert np.isnan(d).all()
+            continue
+        a, b = SUBPART_UV[c.orientation[0]], SUBPART_UV[c.orientation[1]]
+        assert np.linalg.norm(d) == pytest.approx(1.0)
+        assert abs(d[0] * (b - a)[1] - d[1] * (b - a)[0]) < 1e-12 and np.dot(d, b - a) > 0
+    assert np.isnan(BREAK_LINES[len(cats) :]).all()
 
 
 def test_relief_is_unknown_without_terrain_beside():
