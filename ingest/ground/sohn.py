@@ -238,13 +238,16 @@ def _description_lengths(
     lam_c = barycentric(tri, c_simplex[tri_ids], centroid_xy[tri_ids])  # per triangle, once
     ci, tj = cross_pairs(base_simplex, c_simplex[tri_ids])
     planes, normals = _facet_planes(verts[tri.simplices[base_simplex]], xyz[free[cand]])
-    # Which facet holds each triangle's centroid.
-    _, k = _facet_t(lam_c[tj], lam[cand][ci])
-    plane = planes[ci, k]
+    # Which facet holds each triangle's centroid (the k of _facet_t). The work per
+    # (candidate, triangle) pair dominates the filter: gathers are flat and contiguous.
+    ratio = lam_c[tj] / np.maximum(lam[cand], EPS)[ci]
+    flat = 3 * ci + ratio.argmin(axis=1)
+    k = flat - 3 * ci
+    a, b, c = (np.ascontiguousarray(planes[:, :, q]).ravel()[flat][:, None] for q in range(3))
     # Label the triangle's vertices by height over the facet plane (Eq. 6 with δh).
-    vx = xyz[all_tris[tri_ids[tj]]]  # (P, 3, xyz)
-    d = vx[:, :, 2] - (plane[:, None, 0] * vx[:, :, 0] + plane[:, None, 1] * vx[:, :, 1] + plane[:, None, 2])
-    n_on = (d <= p.delta_h).sum(axis=1)
+    tx, ty, tz = (np.ascontiguousarray(xyz[all_tris[tri_ids], q]) for q in range(3))  # (T, 3) each
+    d = tz[tj] - (a * tx[tj] + b * ty[tj] + c)
+    n_on = np.count_nonzero(d <= p.delta_h, axis=1)
     # Offs cost nothing (their length is the −log2 N_offs term): angles only for ons and bufs.
     labelled = np.flatnonzero(n_on > 0)
     dtheta = angle_between(tri_normals[tri_ids[tj[labelled]]], normals[ci[labelled], k[labelled]])
