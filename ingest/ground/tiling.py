@@ -65,6 +65,8 @@ def by_tiles(
                 jobs.append((near, core[near]))
     out = np.zeros(len(xyz), bool)
     if workers > 1 and len(jobs) > 1:
+        # Largest tiles first: a big tile started last would leave the other workers idle.
+        jobs.sort(key=lambda job: -len(job[0]))
         # spawn: a forked child would inherit the parent's threads and locks. One BLAS thread
         # per worker: OpenBLAS threads of several processes spinning on the same cores made
         # a 6 s tile take over five minutes.
