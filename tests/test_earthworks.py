@@ -1,4 +1,4 @@
-"""Long, narrow, low objects are terrain; buildings, blocks and tall strips are not."""
+"""Long, narrow, low objects are terrain, walls too; buildings, blocks, hedges and tall strips are not."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ingest.ground.auto import auto_ground
-from ingest.ground.earthworks import elongated_objects
+from ingest.ground.earthworks import elongated_objects, narrow_walls
 from ingest.synth import make_scene, sample
 from ingest.synth.scene import Feature
 from ingest.synth.surface import feature_offset
@@ -52,3 +52,53 @@ def test_the_default_filter_keeps_a_steep_ridge_it_used_to_cut():
     )
     assert top.sum() > 100
     assert auto_ground(cloud.xyz)[top].mean() > 0.9
+
+
+def _band(angle, length, width, rows=90, offset=0.0):
+    r, c = np.mgrid[0:rows, 0:rows] - rows / 2
+    along = c * np.cos(angle) + r * np.sin(angle)
+    across = -c * np.sin(angle) + r * np.cos(angle) - offset
+    return (np.abs(along) <= length / 2) & (np.abs(across) <= width / 2)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    angle=st.floats(0, np.pi),
+    length=st.integers(20, 60),
+    width=st.sampled_from([2, 3]),
+    height=st.floats(0.6, 2.4),
+)
+def test_a_level_free_standing_band_is_a_wall_and_a_rough_or_crowded_one_is_not(angle, length, width, height):
+    band = _band(angle, length, width)
+    rng = np.random.default_rng(0)
+    level = np.where(band, height + rng.normal(0, 0.03, band.shape), 0.0)
+    nothing_tall = np.zeros(band.shape, bool)
+    assert (narrow_walls(band, level, nothing_tall, cell=1.0) == band).all()
+    # A hedge: the same band with a top that varies by ±0.5 m.
+    rough = np.where(band, height + rng.uniform(-0.5, 0.5, band.shape), 0.0)
+    assert not narrow_walls(band, rough, nothing_tall, cell=1.0).any()
+    # The low band along a building's side: taller points right beside it.
+    beside = _band(angle, length, 4, offset=width / 2 + 2.5)  # a 4 m wide roof along one side
+    assert not narrow_walls(band & ~beside, level, beside & ~band, cell=1.0).any()
+
+
+def test_short_wide_and_high_bands_are_no_walls():
+    tall = np.zeros((60, 60), bool)
+    for band, height in (
+        (_band(0.3, 10, 2, rows=60), 1.2),  # 10 m: a car or two
+        (_band(0.3, 40, 6, rows=60), 1.2),  # 6 m wide: no wall (an earthwork, if anything)
+        (_band(0.3, 40, 2, rows=60), 3.5),  # 3.5 m high: above any wall
+    ):
+        assert not narrow_walls(band, np.where(band, height, 0.0), tall, cell=1.0).any()
+
+
+def test_the_default_filter_keeps_a_wall_it_used_to_cut():
+    # Seed 2's 1.55 m high, 1.31 m wide wall: before this step 10 % of its top points were kept.
+    scene = make_scene(seed=2, size=300)
+    wall = next(f for f in scene.features if f.kind == "wall" and f.size > 1.5)
+    cloud = sample(scene, density=4, seed=2)
+    top = (cloud.classification == GROUND) & (
+        feature_offset(wall, cloud.xyz[:, 0], cloud.xyz[:, 1]) > 0.5 * wall.size
+    )
+    assert top.sum() > 50
+    assert auto_ground(cloud.xyz)[top].mean() > 0.8

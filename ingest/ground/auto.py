@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from ingest.ground.earthworks import elongated_objects
+from ingest.ground.earthworks import elongated_objects, narrow_walls
 from ingest.ground.fill import fill_linear
 from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of
 from ingest.ground.morphology import progressive_opening
@@ -50,6 +50,10 @@ class AutoParams:
     earthwork_min_width: float = 2.5
     earthwork_width: float = 8.0
     earthwork_height: float = 2.5
+    wall_least_height: float = 0.4  # points this far above the ground may be on a wall (m)
+    wall_width: float = 3.5  # widest band of cells a wall's points fill (m)
+    wall_roughness: float = 0.15  # a wall's top is level within this (m, median absolute deviation)
+    wall_tall_share: float = 0.1
 
 
 def ground_surface(
@@ -107,8 +111,38 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
         if not earthworks.any():
             break
         current = np.where(earthworks, idx, current)
+    is_ground |= _walls(grid, pts, h, is_ground, p)
     ground[keep[is_ground]] = True
     return ground
+
+
+def _walls(
+    grid: Grid, pts: NDArray[np.float64], h: NDArray[np.float64], is_ground: NDArray[np.bool_], p: AutoParams
+) -> NDArray[np.bool_]:
+    """Points of free-standing walls (:func:`ingest.ground.earthworks.narrow_walls`), from each
+    point's height ``h`` above the settled ground surface."""
+    low = ~is_ground & (h > p.wall_least_height) & (h <= p.earthwork_height)
+    row, col = grid.index(pts[:, :2])
+    band = np.zeros(grid.shape, bool)
+    band[row[low], col[low]] = True
+    top = np.zeros(grid.shape)
+    np.maximum.at(top, (row[low], col[low]), h[low])
+    tall = np.zeros(grid.shape, bool)
+    higher = h > p.earthwork_height
+    tall[row[higher], col[higher]] = True
+    walls = narrow_walls(
+        band,
+        top,
+        tall,
+        cell=grid.cell,
+        min_length=p.earthwork_length,
+        min_ratio=p.earthwork_ratio,
+        max_width=p.wall_width,
+        max_height=p.earthwork_height,
+        max_roughness=p.wall_roughness,
+        max_tall_share=p.wall_tall_share,
+    )
+    return low & walls[row, col]
 
 
 def _earthworks(

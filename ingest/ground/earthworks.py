@@ -10,6 +10,13 @@ and ``max_width`` wide and at most ``max_height`` above the ground surface is
 terrain. The least width keeps out what a 1 m grid cannot follow: walls (their
 cells alternate between ground and wall, so only pieces of them would be kept,
 and not the same pieces in two surveys), hedges and rows of cars.
+
+Walls get a test of their own (:func:`narrow_walls`), on the cells that hold any
+point a little above the ground rather than on the cells whose lowest point is
+above it: a wall narrower than two cells has its cells' lowest points on the
+ground beside it, but its top points fill a band two or three cells wide. A wall
+is long and narrow, low, level along its top (a hedge's top is rough) and stands
+free (a low band along a building or under trees has taller points beside it).
 """
 
 from __future__ import annotations
@@ -58,5 +65,51 @@ def elongated_objects(
     top = np.asarray(ndimage.maximum(height, labels, index=np.arange(n + 1)), np.float64)
     ok = (length >= min_length) & (length >= min_ratio * width) & (width >= min_width) & (width <= max_width)
     ok &= top <= max_height
+    ok[0] = False
+    return np.asarray(ok[labels], bool)
+
+
+def narrow_walls(
+    band: NDArray[np.bool_],
+    top: NDArray[np.float64],
+    tall: NDArray[np.bool_],
+    *,
+    cell: float,
+    min_length: float = 15.0,
+    min_ratio: float = 4.0,
+    max_width: float = 3.5,
+    max_height: float = 2.5,
+    max_roughness: float = 0.15,
+    max_tall_share: float = 0.1,
+) -> NDArray[np.bool_]:
+    """Cells of the 8-connected groups of ``band`` that are free-standing walls.
+
+    Parameters
+    ----------
+    band : (rows, cols) cells holding a point that is not ground, a little above the ground.
+    top : (rows, cols) height (m) of the highest such point of each cell above the ground surface.
+    tall : (rows, cols) cells holding a point higher than any wall.
+    cell : cell size (m).
+    min_length, min_ratio, max_width, max_height : the shape a group must have (m, length /
+        width, m, m). The width is twice the mean distance of the group's cells to its edge, so
+        that curved walls are as narrow as straight ones; the length is the area over the width.
+    max_roughness : largest median absolute deviation (m) of the cells' tops about their median.
+    max_tall_share : largest share of the group's cells that touch a ``tall`` cell.
+    """
+    labels, n = ndimage.label(band, structure=np.ones((3, 3)))
+    if n == 0:
+        return np.zeros(band.shape, bool)
+    index = np.arange(n + 1)
+    area = np.bincount(labels.ravel(), minlength=n + 1).astype(np.float64)
+    inside = np.bincount(labels.ravel(), ndimage.distance_transform_edt(band).ravel(), minlength=n + 1)
+    width = 2 * inside / np.maximum(area, 1.0) * cell
+    length = area * cell * cell / np.maximum(width, cell)
+    highest = np.asarray(ndimage.maximum(top, labels, index), np.float64)
+    middle = np.asarray(ndimage.median(top, labels, index), np.float64)
+    roughness = np.asarray(ndimage.median(np.abs(top - middle[labels]), labels, index), np.float64)
+    beside_tall = ndimage.binary_dilation(tall, structure=np.ones((3, 3)))
+    tall_share = np.bincount(labels.ravel(), beside_tall.ravel(), minlength=n + 1) / np.maximum(area, 1.0)
+    ok = (length >= min_length) & (length >= min_ratio * width) & (width <= max_width) & (highest <= max_height)
+    ok &= (roughness <= max_roughness) & (tall_share <= max_tall_share)
     ok[0] = False
     return np.asarray(ok[labels], bool)
