@@ -10,6 +10,9 @@
    above that surface against a threshold that grows with the local slope; the
    ground so found makes the next surface and the test is repeated, which lets
    ground creep up breaks of slope that the square windows cut off.
+4. Once settled, long, narrow, low groups of object cells (earthworks) join the
+   ground and the passes go on; then free-standing walls do
+   (:mod:`ingest.ground.earthworks`).
 
 The surface used to be a TIN of the ground points. On the ISPRS samples the
 gap-filled corner grid is as accurate (3.95 % against 4.02 % mean total error)
