@@ -54,6 +54,7 @@ class AutoParams:
     earthwork_width: float = 8.0
     earthwork_height: float = 2.5
     wall_least_height: float = 0.4  # points this far above the ground may be on a wall (m)
+    wall_length: float = 20.0  # shortest wall (m): bands are joined across gaps, rows of cars too
     wall_width: float = 3.5  # widest band of cells a wall's points fill (m)
     wall_roughness: float = 0.15  # a wall's top is level within this (m, median absolute deviation)
     wall_tall_share: float = 0.1
@@ -138,7 +139,7 @@ def _walls(
         top,
         tall,
         cell=grid.cell,
-        min_length=p.earthwork_length,
+        min_length=p.wall_length,
         min_ratio=p.earthwork_ratio,
         max_width=p.wall_width,
         max_height=p.earthwork_height,

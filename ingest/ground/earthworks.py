@@ -96,7 +96,10 @@ def narrow_walls(
     max_roughness : largest median absolute deviation (m) of the cells' tops about their median.
     max_tall_share : largest share of the group's cells that touch a ``tall`` cell.
     """
-    labels, n = ndimage.label(band, structure=np.ones((3, 3)))
+    # Groups are joined across single empty cells: where a wall's top holds no point, or none
+    # high enough, one survey would otherwise split it where the next does not.
+    joined, n = ndimage.label(ndimage.binary_closing(band, structure=np.ones((3, 3))), structure=np.ones((3, 3)))
+    labels = np.where(band, joined, 0)
     if n == 0:
         return np.zeros(band.shape, bool)
     index = np.arange(n + 1)
