@@ -82,7 +82,8 @@ def narrow_walls(
     max_roughness: float = 0.15,
     max_tall_share: float = 0.1,
 ) -> NDArray[np.bool_]:
-    """Cells of the 8-connected groups of ``band`` that are free-standing walls.
+    """Cells of ``band`` whose group (8-connected, joined across single empty cells) is a
+    free-standing wall.
 
     Parameters
     ----------
