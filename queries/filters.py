@@ -30,17 +30,29 @@ from tdb.errors import FilterError
 FEATURES = np.array([c.feature for c in all_categories()] + [-1] * (256 - len(all_categories())))
 
 
-def _break_line(orientation: tuple[int, int] | None) -> tuple[float, float]:
-    if orientation is None or orientation[0] == orientation[1]:  # no line: a plane, a peak, a pit
-        return (np.nan, np.nan)
-    d = SUBPART_UV[orientation[1]] - SUBPART_UV[orientation[0]]
-    return tuple(d / np.linalg.norm(d))
+@cache
+def _line_ends() -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Per code, the break line's end points in tile units, and whether the code has one."""
+    start, end, has = np.zeros((256, 2)), np.zeros((256, 2)), np.zeros(256, bool)
+    for c in all_categories():
+        if c.orientation is not None and c.orientation[0] != c.orientation[1]:
+            start[c.code], end[c.code], has[c.code] = (
+                SUBPART_UV[c.orientation[0]],
+                SUBPART_UV[c.orientation[1]],
+                True,
+            )
+    return start, end, has
+
+
+def _break_lines() -> NDArray[np.float64]:
+    start, end, has = _line_ends()
+    d = end - start
+    length = np.linalg.norm(d, axis=1, keepdims=True)
+    return np.where(has[:, None], d / np.where(has[:, None], length, 1.0), np.nan)
 
 
 # Unit direction of each code's break line in plan (NaN for codes without one).
-BREAK_LINES = np.array(
-    [_break_line(c.orientation) for c in all_categories()] + [(np.nan, np.nan)] * (256 - len(all_categories()))
-)
+BREAK_LINES = _break_lines()
 
 
 @dataclass(frozen=True)
@@ -202,20 +214,6 @@ def components(
     by_label = np.argsort(labels, kind="stable")
     groups = np.split(sel[by_label], np.flatnonzero(np.diff(labels[by_label])) + 1)
     return [g for g in groups if len(g) >= flt.min_tiles]
-
-
-@cache
-def _line_ends() -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """Per code, the break line's end points in tile units, and whether the code has one."""
-    start, end, has = np.zeros((256, 2)), np.zeros((256, 2)), np.zeros(256, bool)
-    for c in all_categories():
-        if c.orientation is not None and c.orientation[0] != c.orientation[1]:
-            start[c.code], end[c.code], has[c.code] = (
-                SUBPART_UV[c.orientation[0]],
-                SUBPART_UV[c.orientation[1]],
-                True,
-            )
-    return start, end, has
 
 
 def tile_lines(xg: NDArray[np.int64], yg: NDArray[np.int64], code: NDArray[np.uint8], level: int) -> list[Any]:

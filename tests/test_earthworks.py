@@ -14,14 +14,17 @@ from ingest.synth.surface import feature_offset
 from tdb.cloud import GROUND
 
 
+def _band(angle, length, width, rows=90, offset=0.0):
+    r, c = np.mgrid[0:rows, 0:rows] - rows / 2
+    along = c * np.cos(angle) + r * np.sin(angle)
+    across = -c * np.sin(angle) + r * np.cos(angle) - offset
+    return (np.abs(along) <= length / 2) & (np.abs(across) <= width / 2)
+
+
 @settings(max_examples=30, deadline=None)
 @given(angle=st.floats(0, np.pi), length=st.integers(25, 60), width=st.integers(3, 4), height=st.floats(0.3, 2.4))
 def test_a_long_narrow_low_strip_is_an_earthwork_at_any_bearing(angle, length, width, height):
-    rows = cols = 90
-    r, c = np.mgrid[0:rows, 0:cols] - 45.0
-    along = c * np.cos(angle) + r * np.sin(angle)
-    across = -c * np.sin(angle) + r * np.cos(angle)
-    strip = (np.abs(along) <= length / 2) & (np.abs(across) <= width / 2)
+    strip = _band(angle, length, width)
     found = elongated_objects(strip, np.where(strip, height, 0.0), cell=1.0)
     assert (found == strip).all()
     # The same strip standing higher than max_height is an object (a building's long wing, a train).
@@ -52,13 +55,6 @@ def test_the_default_filter_keeps_a_steep_ridge_it_used_to_cut():
     )
     assert top.sum() > 100
     assert auto_ground(cloud.xyz)[top].mean() > 0.9
-
-
-def _band(angle, length, width, rows=90, offset=0.0):
-    r, c = np.mgrid[0:rows, 0:rows] - rows / 2
-    along = c * np.cos(angle) + r * np.sin(angle)
-    across = -c * np.sin(angle) + r * np.cos(angle) - offset
-    return (np.abs(along) <= length / 2) & (np.abs(across) <= width / 2)
 
 
 @settings(max_examples=30, deadline=None)

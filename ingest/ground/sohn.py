@@ -240,12 +240,12 @@ def _description_lengths(
     planes, normals = _facet_planes(verts[tri.simplices[base_simplex]], xyz[free[cand]])
     # Which facet holds each triangle's centroid (the k of _facet_t). The work per
     # (candidate, triangle) pair dominates the filter: gathers are flat and contiguous.
-    ratio = lam_c[tj] / np.maximum(lam[cand], EPS)[ci]
-    flat = 3 * ci + ratio.argmin(axis=1)
-    k = flat - 3 * ci
+    k = (lam_c[tj] / np.maximum(lam[cand], EPS)[ci]).argmin(axis=1)
+    flat = 3 * ci + k
     a, b, c = (np.ascontiguousarray(planes[:, :, q]).ravel()[flat][:, None] for q in range(3))
     # Label the triangle's vertices by height over the facet plane (Eq. 6 with δh).
-    tx, ty, tz = (np.ascontiguousarray(xyz[all_tris[tri_ids], q]) for q in range(3))  # (T, 3) each
+    corners_xyz = xyz[all_tris[tri_ids]]
+    tx, ty, tz = (np.ascontiguousarray(corners_xyz[:, :, q]) for q in range(3))  # (T, 3) each
     d = tz[tj] - (a * tx[tj] + b * ty[tj] + c)
     n_on = np.count_nonzero(d <= p.delta_h, axis=1)
     # Offs cost nothing (their length is the −log2 N_offs term): angles only for ons and bufs.
