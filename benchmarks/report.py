@@ -206,8 +206,8 @@ def epochs_section(out: list[str]) -> None:
         f"tiles) reported as changed: **{doc['stable_reported_changed_pct']:.1f} %** (target ≤ 5 %).",
         "- Agreement with a plain DEM of difference at the same 95 % level: "
         f"{doc['agreement_with_dod_pct']:.1f} % "
-        f"of tiles (DoD flags {doc['dod_changed_tiles']:,} tiles, tdb {doc['tdb_changed_tiles']:,}: tdb also "
-        "asks for a change of category).",
+        f"of tiles (DoD flags {doc['dod_changed_tiles']:,} tiles, tdb {doc['tdb_changed_tiles']:,}: tdb's "
+        "regions start where the category changed and drop small or incoherent ones).",
         "",
     ]
 

@@ -4,9 +4,11 @@ Tiles of both versions are matched by key at one level. A tile changed when its
 category differs and the surface moved by more than the level of detection
 (LoD): the surfaces are rebuilt from each version's kept points (on the level's
 node lattice, holes bridged by straight lines, no triangulation) and compared at
-the tile's 3 × 3 nodes, only where the categories differ; LoD = 1.96 × √(σ₁² + σ₂²) from the two surveys' measured
-ground noise, at least 0.1 m. Changed tiles that touch form regions; each region
-is typed by the filters that match in one version and not the other.
+the tile's 3 × 3 nodes; LoD = 1.96 × √(σ₁² + σ₂²) from the two surveys' measured
+ground noise and reduction errors, at least 0.1 m. Changed tiles then grow over
+neighbours whose category stayed the same but whose surface moved as well.
+Changed tiles that touch form regions; each region is typed by the filters that
+match in one version and not the other.
 """
 
 from __future__ import annotations
@@ -107,47 +109,35 @@ def _surface(nodes: NDArray[np.float64]) -> NDArray[np.float64]:
     return fill_lines_stack(nodes, passes=2, cells=cells.ravel())
 
 
-def detect(
-    db: Database,
-    before: str,
-    after: str,
-    *,
-    level: int = 2,
-    bbox: tuple[float, float, float, float] | None = None,
-    min_tiles: int = 8,
-) -> list[dict[str, Any]]:
-    """Changed regions between ``before`` and ``after`` as GeoJSON feature dicts."""
-    xa, ya, ca = db.tiles(before, level=level, bbox=bbox, ordered=False)
-    xb, yb, cb = db.tiles(after, level=level, bbox=bbox, ordered=False)
-    _, ia, ib = np.intersect1d(tile_key(xa, ya), tile_key(xb, yb), return_indices=True)
-    if len(ia) == 0:
-        return []
-    xg, yg, c1, c2 = xa[ia], ya[ia], ca[ia], cb[ib]
-    # Only tiles whose category differs can change: the surfaces are rebuilt around them alone.
-    differ = np.flatnonzero((c1 != c2) & (c1 != NO_DATA) & (c2 != NO_DATA))
-    if len(differ) == 0:
-        return []
-    xg, yg, c1, c2 = xg[differ], yg[differ], c1[differ], c2[differ]
-    lod = level_of_detection(db, before, after)
-    lattices = {name: _lattice(db, name, level, xg, yg) for name in (before, after)}
-    na, nb = lattices[before].tile_nodes(xg, yg), lattices[after].tile_nodes(xg, yg)
+def _moved_tiles(
+    la: NodeLattice,
+    lb: NodeLattice,
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    which: NDArray[np.intp],
+    lod: float,
+) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.bool_]]:
+    """The tiles ``which`` that can move (indices), the height change at their 3 × 3 nodes, and
+    whether each moved: at least three of its nine nodes beyond ``lod``, since one node alone is
+    often an interpolation difference between the two sets of kept points."""
+    na, nb = la.tile_nodes(xg[which], yg[which]), lb.tile_nodes(xg[which], yg[which])
     keep = np.flatnonzero(_may_move(na, nb, lod) >= 3)
-    if len(keep) == 0:
-        return []
-    xg, yg, c1, c2 = xg[keep], yg[keep], c1[keep], c2[keep]
     surfaces = _surface(np.concatenate([na[keep], nb[keep]]))
     dz = surfaces[len(keep) :] - surfaces[: len(keep)]
-    # A tile moved when at least three of its nine nodes moved beyond the LoD: one node
-    # alone is often an interpolation difference between the two sets of kept points.
     with np.errstate(invalid="ignore"):
-        changed = (np.abs(dz) > lod).sum(axis=1) >= 3
-    if not changed.any():
-        return []
-    # Regions: changed tiles touching (8-neighbours) on the tile lattice.
+        moved = (np.abs(dz) > lod).sum(axis=1) >= 3
+    return which[keep], dz, moved
+
+
+def _regions(
+    xg: NDArray[np.int64], yg: NDArray[np.int64], dz: NDArray[np.float64], lod: float, level: int, min_tiles: int
+) -> list[tuple[NDArray[np.intp], float]]:
+    """Regions of the moved tiles ``xg``, ``yg`` (8-neighbours on the tile lattice) that count as
+    changes, each as its members and mean height change."""
     i = ((xg - xg.min()) // level).astype(np.intp)
     j = ((yg - yg.min()) // level).astype(np.intp)
     grid = np.zeros((j.max() + 1, i.max() + 1), bool)
-    grid[j[changed], i[changed]] = True
+    grid[j, i] = True
     labels, n = ndimage.label(grid, structure=np.ones((3, 3)))
     tile_label = labels[j, i]
     by_label = np.argsort(tile_label, kind="stable")
@@ -165,6 +155,96 @@ def detect(
             continue
         if len(members) < min_tiles and abs(mean_dz) < STRONG * lod:
             continue
+        regions.append((members, mean_dz))
+    return regions
+
+
+def _grow(
+    la: NodeLattice,
+    lb: NodeLattice,
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    valid: NDArray[np.bool_],
+    lod: float,
+    tested: NDArray[np.intp],
+    dz: NDArray[np.float64],
+    moved: NDArray[np.bool_],
+    seeds: NDArray[np.intp],
+    level: int,
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """Grow the changed tiles ``seeds`` over neighbours whose surface moved as well, ring by
+    ring until none is added: the tiles (indices into ``xg``) and their node height changes.
+
+    A wall built across a slope can leave a tile's template unchanged, and a raised
+    platform keeps its flat tiles flat: the category change starts a region, and the
+    height change decides how far it reaches. ``tested``, ``dz`` and ``moved`` are the
+    tiles already compared (those whose category differs).
+    """
+    i = ((xg - xg.min()) // level).astype(np.intp)
+    j = ((yg - yg.min()) // level).astype(np.intp)
+    index = np.full((j.max() + 3, i.max() + 3), -1, np.intp)  # a border of −1 around the tiles
+    index[j + 1, i + 1] = np.arange(len(xg))
+    row = np.full(len(xg), -1, np.intp)  # each compared tile's row in the parts below; −2: did not move
+    row[tested] = np.where(moved, np.arange(len(tested)), -2)
+    row[~valid] = -2
+    parts = [dz]
+    taken = np.zeros(len(xg), bool)
+    taken[seeds] = True
+    new, count = seeds, len(tested)
+    ring = np.array([(di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj])
+    while len(new):
+        near = index[j[new, None] + 1 + ring[:, 1], i[new, None] + 1 + ring[:, 0]].ravel()
+        near = np.unique(near[near >= 0])
+        near = near[~taken[near] & (row[near] != -2)]
+        unknown = near[row[near] == -1]
+        if len(unknown):
+            t, d, m = _moved_tiles(la, lb, xg, yg, unknown, lod)
+            row[unknown] = -2
+            row[t[m]] = count + np.arange(int(m.sum()))
+            parts.append(d[m])
+            count += int(m.sum())
+        new = near[row[near] >= 0]
+        taken[new] = True
+    out = np.flatnonzero(taken)
+    return out, np.concatenate(parts)[row[out]]
+
+
+def detect(
+    db: Database,
+    before: str,
+    after: str,
+    *,
+    level: int = 2,
+    bbox: tuple[float, float, float, float] | None = None,
+    min_tiles: int = 8,
+) -> list[dict[str, Any]]:
+    """Changed regions between ``before`` and ``after`` as GeoJSON feature dicts."""
+    xa, ya, ca = db.tiles(before, level=level, bbox=bbox, ordered=False)
+    xb, yb, cb = db.tiles(after, level=level, bbox=bbox, ordered=False)
+    _, ia, ib = np.intersect1d(tile_key(xa, ya), tile_key(xb, yb), return_indices=True)
+    if len(ia) == 0:
+        return []
+    xg, yg, c1, c2 = xa[ia], ya[ia], ca[ia], cb[ib]
+    valid = (c1 != NO_DATA) & (c2 != NO_DATA)
+    # Only tiles whose category differs can start a change: the surfaces are rebuilt around them alone.
+    differ = np.flatnonzero((c1 != c2) & valid)
+    if len(differ) == 0:
+        return []
+    lod = level_of_detection(db, before, after)
+    lattices = {name: _lattice(db, name, level, xg[differ], yg[differ]) for name in (before, after)}
+    tested, dz, moved = _moved_tiles(lattices[before], lattices[after], xg, yg, differ, lod)
+    if not moved.any():
+        return []
+    first = tested[moved]
+    seeds = [first[m] for m, _ in _regions(xg[first], yg[first], dz[moved], lod, level, min_tiles)]
+    if not seeds:
+        return []
+    grown, dz = _grow(
+        lattices[before], lattices[after], xg, yg, valid, lod, tested, dz, moved, np.concatenate(seeds), level
+    )
+    xg, yg = xg[grown], yg[grown]
+    regions = []
+    for members, mean_dz in _regions(xg, yg, dz, lod, level, min_tiles):
         x, y = xg[members], yg[members]
         geom = shapely.coverage_union_all(shapely.box(x, y, x + level, y + level))  # tiles never overlap
         regions.append((members, mean_dz, geom))

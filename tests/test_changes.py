@@ -17,6 +17,7 @@ from ingest.synth import apply_changes, make_scene, sample
 from ingest.synth.scene import Feature
 from queries.changes import _may_move, _surface, detect, level_of_detection
 from tdb.cli import main
+from tdb.cloud import from_arrays
 
 
 def test_dug_and_filled_ditches_are_found_and_typed(tmp_path):
@@ -105,3 +106,33 @@ def test_the_gate_never_skips_a_tile_that_moves(seed, holes, lod):
     bound = _may_move(na, nb, lod)
     assert (moved <= bound).all()
     assert (bound <= 9).all()
+
+
+def _gentle_slope(rng, *, raised: bool):
+    """80 m of ground sloping 2 %, sampled at 4 points/m², optionally with a 24 m square
+    platform raised 1 m (sides 1:2) in its middle."""
+    x, y = rng.uniform(0, 80, (2, 80 * 80 * 4)) + np.array([[500_000.0], [6_000_000.0]])
+    z = 50 + 0.02 * (x - 500_000) + rng.normal(0, 0.03, len(x))
+    if raised:
+        d = np.maximum(np.abs(x - 500_040), np.abs(y - 6_000_040))  # square distance from the middle
+        z += np.clip((14 - d) / 2, 0, 1)
+    return from_arrays(x, y, z, crs="EPSG:25832")
+
+
+def test_a_raised_platform_is_found_whole_though_its_inner_tiles_keep_their_category(tmp_path):
+    rng = np.random.default_rng(5)
+    db = tdb.open(tmp_path / "p.tdb", create=True)
+    ingest(_gentle_slope(rng, raised=False), db, version="a")
+    ingest(_gentle_slope(rng, raised=True), db, version="b")
+    top = shapely.box(500_028, 6_000_028, 500_052, 6_000_052)
+    xa, ya, ca = db.tiles("a", level=2)
+    xb, yb, cb = db.tiles("b", level=2)
+    assert np.array_equal(xa, xb) and np.array_equal(ya, yb)
+    inner = shapely.contains_xy(top.buffer(-2), xa + 1, ya + 1)
+    assert (ca[inner] == cb[inner]).mean() > 0.8  # the categories alone see only the rim
+    found = detect(db, "a", "b")
+    assert len(found) == 1
+    region = shapely.geometry.shape(found[0]["geometry"])
+    assert region.intersection(top).area > 0.95 * top.area
+    assert region.difference(top.buffer(4)).area == 0
+    assert 0.8 < found[0]["properties"]["dz"] < 1.1
