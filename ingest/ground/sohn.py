@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import Delaunay
 
+from ingest.ground.ground_tin import GroundTin
 from ingest.ground.tin import (
     angle_between,
     barycentric,
@@ -136,21 +137,19 @@ def upward(
     all_tris = tri_all.simplices
     centroid_xy = xyz[all_tris, :2].mean(axis=1)
     tri_normals = unit_normals(xyz[all_tris[:, 0]], xyz[all_tris[:, 1]], xyz[all_tris[:, 2]])
+    tin = GroundTin.build(np.vstack([corners, xyz[ground]]))
+    free = np.flatnonzero(~ground)
+    simplex = tin.locate(xyz[free, :2])
     for _ in range(p.max_iterations):
-        gidx = np.flatnonzero(ground)
-        verts = np.vstack([corners, xyz[gidx]])
-        tri = triangulate(verts[:, :2])
-        free = np.flatnonzero(~ground)
-        simplex = locate(tri, xyz[free, :2])
-        lam = barycentric(tri, simplex, xyz[free, :2])
-        vz = verts[tri.simplices, 2]
+        lam = barycentric(tin, simplex, xyz[free, :2])
+        vz = tin.points[tin.simplices, 2]
         h = xyz[free, 2] - (lam * vz[simplex]).sum(axis=1)
         in_buffer = (h > EPS) & (h <= p.delta_h)
         if not in_buffer.any():
             break
         # Candidates: every member point of each triggered triangle (the lowest
         # max_candidates of them, which bounds the work on huge early triangles).
-        triggered = np.zeros(len(tri.simplices), bool)
+        triggered = np.zeros(len(tin.simplices), bool)
         triggered[simplex[in_buffer]] = True
         cand = np.flatnonzero(triggered[simplex] & (h > EPS))
         order = np.lexsort((h[cand], simplex[cand]))
@@ -168,11 +167,13 @@ def upward(
         cand = cand[~rejected]
         if len(cand) == 0:
             break
-        dl = _description_lengths(
-            xyz, free, cand, simplex, lam, h, tri, verts, centroid_xy, tri_normals, all_tris, p
-        )
-        best = _per_group_argmin(simplex[cand], dl)
-        ground[free[cand[best]]] = True
+        dl = _description_lengths(xyz, free, cand, simplex, lam, h, tin, centroid_xy, tri_normals, all_tris, p)
+        won = cand[_per_group_argmin(simplex[cand], dl)]
+        ground[free[won]] = True
+        stay = np.ones(len(free), bool)
+        stay[won] = False
+        tin, simplex = tin.insert(xyz[free[won]], simplex[won], xyz[free[stay], :2], simplex[stay])
+        free = free[stay]
     return ground
 
 
@@ -214,8 +215,7 @@ def _description_lengths(
     simplex: NDArray[np.intp],
     lam: NDArray[np.float64],
     h: NDArray[np.float64],
-    tri: Delaunay,
-    verts: NDArray[np.float64],
+    tin: GroundTin,
     centroid_xy: NDArray[np.float64],
     tri_normals: NDArray[np.float64],
     all_tris: NDArray[np.intp],
@@ -235,9 +235,9 @@ def _description_lengths(
     vs = point_simplex[all_tris]
     c_simplex = np.where(vs[:, 0] >= 0, vs[:, 0], np.where(vs[:, 1] >= 0, vs[:, 1], vs[:, 2]))
     tri_ids = np.flatnonzero(np.isin(c_simplex, base_simplex))
-    lam_c = barycentric(tri, c_simplex[tri_ids], centroid_xy[tri_ids])  # per triangle, once
+    lam_c = barycentric(tin, c_simplex[tri_ids], centroid_xy[tri_ids])  # per triangle, once
     ci, tj = cross_pairs(base_simplex, c_simplex[tri_ids])
-    planes, normals = _facet_planes(verts[tri.simplices[base_simplex]], xyz[free[cand]])
+    planes, normals = _facet_planes(tin.points[tin.simplices[base_simplex]], xyz[free[cand]])
     # Which facet holds each triangle's centroid (the k of _facet_t). The work per
     # (candidate, triangle) pair dominates the filter: gathers are flat and contiguous.
     k = (lam_c[tj] / np.maximum(lam[cand], EPS)[ci]).argmin(axis=1)

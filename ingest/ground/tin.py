@@ -57,7 +57,8 @@ def locate(tri: Delaunay, xy: NDArray[np.float64]) -> NDArray[np.intp]:
 
 
 def barycentric(tri: Delaunay, simplex: NDArray[np.intp], xy: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Barycentric coordinates (M, 3) of ``xy`` in the given simplices of ``tri``."""
+    """Barycentric coordinates (M, 3) of ``xy`` in the given simplices of ``tri`` (a ``Delaunay`` or
+    anything with its ``transform`` and ``origin``, such as a ``GroundTin``)."""
     t = tri.transform[simplex]
     b = np.einsum("ijk,ik->ij", t[:, :2, :], _local(tri, xy) - t[:, 2, :])
     return np.column_stack([b, 1.0 - b.sum(axis=1)])
