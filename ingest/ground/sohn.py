@@ -135,7 +135,6 @@ def upward(
     """§4.3: add the MDL-best tetrahedron apex of every triggered triangle until none is found."""
     ground = ground.copy()
     all_tris = tri_all.simplices
-    centroid_xy = xyz[all_tris, :2].mean(axis=1)
     tri_normals = unit_normals(xyz[all_tris[:, 0]], xyz[all_tris[:, 1]], xyz[all_tris[:, 2]])
     tin = GroundTin.build(np.vstack([corners, xyz[ground]]))
     free = np.flatnonzero(~ground)
@@ -159,15 +158,16 @@ def upward(
         cand = cand[rank < p.max_candidates]
         # Rejection rule, literally: ∀k φ^ik s^ik < 0, i.e. every lateral facet has a point below it.
         ci, mi = cross_pairs(simplex[cand], simplex)
-        t, k = _facet_t(lam[mi], lam[cand[ci]])
-        below = h[mi] - t * h[cand[ci]] < -p.below_tolerance
-        facet_below = np.zeros((len(cand), 3), bool)
-        np.logical_or.at(facet_below, (ci[below], k[below]), True)
+        columns = np.ascontiguousarray(lam.T)
+        apex = cand[ci]
+        t, k = _least_ratio([c[mi] for c in columns], [c[apex] for c in columns])
+        below = h[mi] - t * h[apex] < -p.below_tolerance
+        facet_below = np.bincount(3 * ci[below] + k[below], minlength=3 * len(cand)).reshape(-1, 3) > 0
         rejected = facet_below.sum(axis=1) >= p.reject_facets
         cand = cand[~rejected]
         if len(cand) == 0:
             break
-        dl = _description_lengths(xyz, free, cand, simplex, lam, h, tin, centroid_xy, tri_normals, all_tris, p)
+        dl = _description_lengths(xyz, free, cand, simplex, lam, h, tin, tri_normals, all_tris, p)
         won = cand[_per_group_argmin(simplex[cand], dl)]
         ground[free[won]] = True
         stay = np.ones(len(free), bool)
@@ -182,30 +182,34 @@ def _facet_t(
 ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """Share of the apex in point p's height on the lateral facet that holds it.
 
-    With barycentrics λp of p and λa of the apex in the base triangle, p lies in
+    With barycentrics λp of p and λa of the apex in the base triangle (M, 3), p lies in
     the facet opposite the vertex k minimising λp[k]/λa[k] =: t, and the facet's
     height over the base plane at p is t·H. Returns (t, k).
     """
-    ratio = lam_p / np.maximum(lam_a, EPS)
-    k = ratio.argmin(axis=1)
-    return np.clip(ratio[np.arange(len(k)), k], 0.0, 1.0), k
+    return _least_ratio([lam_p[:, q] for q in range(3)], [lam_a[:, q] for q in range(3)])
 
 
-def _facet_planes(
-    base: NDArray[np.float64], apex: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The three lateral facets of each tetrahedron: base (M, 3 vertices, xyz) with vertex k
-    replaced by the apex (M, xyz). Returns planes z = a·x + b·y + c as (M, 3 facets, [a, b, c])
-    and upward unit normals (M, 3 facets, xyz)."""
+def _least_ratio(
+    p: list[NDArray[np.float64]], a: list[NDArray[np.float64]]
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """:func:`_facet_t` on the barycentrics' three columns: elementwise operations on 1-D
+    arrays run several times faster than reductions along a short last axis."""
+    r = [p[q] / np.maximum(a[q], EPS) for q in range(3)]
+    k = np.where(r[1] < r[0], 1, 0)
+    least = np.minimum(r[0], r[1])
+    third = r[2] < least
+    k[third] = 2
+    return np.clip(np.where(third, r[2], least), 0.0, 1.0), k
+
+
+def _facet_normals(base: NDArray[np.float64], apex: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Upward unit normals (M, 3 facets, xyz) of the three lateral facets of each tetrahedron:
+    base (M, 3 vertices, xyz) with vertex k replaced by the apex (M, xyz)."""
     m = len(apex)
     facets = np.repeat(base[:, None], 3, axis=1)  # (M, k, vertex, xyz)
     facets[:, [0, 1, 2], [0, 1, 2]] = apex[:, None, :]
     flat = facets.reshape(3 * m, 3, 3)
-    normals = unit_normals(flat[:, 0], flat[:, 1], flat[:, 2])
-    nz = np.where(np.abs(normals[:, 2]) < EPS, EPS, normals[:, 2])
-    a, b = -normals[:, 0] / nz, -normals[:, 1] / nz
-    c = flat[:, 0, 2] - a * flat[:, 0, 0] - b * flat[:, 0, 1]
-    return np.column_stack([a, b, c]).reshape(m, 3, 3), normals.reshape(m, 3, 3)
+    return unit_normals(flat[:, 0], flat[:, 1], flat[:, 2]).reshape(m, 3, 3)
 
 
 def _description_lengths(
@@ -216,7 +220,6 @@ def _description_lengths(
     lam: NDArray[np.float64],
     h: NDArray[np.float64],
     tin: GroundTin,
-    centroid_xy: NDArray[np.float64],
     tri_normals: NDArray[np.float64],
     all_tris: NDArray[np.intp],
     p: SohnParams,
@@ -224,7 +227,7 @@ def _description_lengths(
     """Eq. 12 for every candidate tetrahedron, over the global TIN triangles in its base.
 
     Work per (candidate, TIN triangle) pair is kept to gathers and a few products:
-    facet planes are computed per candidate and barycentrics per triangle.
+    facet normals are computed per candidate and barycentrics per triangle.
     """
     n_cand = len(cand)
     base_simplex = simplex[cand]
@@ -235,19 +238,31 @@ def _description_lengths(
     vs = point_simplex[all_tris]
     c_simplex = np.where(vs[:, 0] >= 0, vs[:, 0], np.where(vs[:, 1] >= 0, vs[:, 1], vs[:, 2]))
     tri_ids = np.flatnonzero(np.isin(c_simplex, base_simplex))
-    lam_c = barycentric(tin, c_simplex[tri_ids], centroid_xy[tri_ids])  # per triangle, once
+    # Per TIN triangle, once: its corners' barycentrics in its base triangle and heights above
+    # the base plane. A lateral facet k rises over the base plane by H·λ[k]/λa[k] (zero on the
+    # base edge opposite k, H at the apex), so a corner's height above facet k is
+    # h − H·λ[k]/λa[k]: per pair, a few gathers and one product.
+    base_of = np.repeat(c_simplex[tri_ids], 3)
+    corner_xyz = xyz[all_tris[tri_ids]].reshape(-1, 3)
+    lam_v = barycentric(tin, base_of, corner_xyz[:, :2])
+    h_v = (corner_xyz[:, 2] - (lam_v * tin.points[tin.simplices[base_of], 2]).sum(axis=1)).reshape(-1, 3)
+    # Column by column below: gathers and elementwise operations on 1-D arrays run several
+    # times faster than reductions along a short last axis.
+    lam_vk = np.ascontiguousarray(lam_v.reshape(-1, 3, 3).transpose(1, 2, 0))  # (corner, base vertex, T)
+    lam_c = lam_vk.mean(axis=0)  # (base vertex, T): the centroid's
+    h_v = np.ascontiguousarray(h_v.T)  # (corner, T)
     ci, tj = cross_pairs(base_simplex, c_simplex[tri_ids])
-    planes, normals = _facet_planes(tin.points[tin.simplices[base_simplex]], xyz[free[cand]])
-    # Which facet holds each triangle's centroid (the k of _facet_t). The work per
-    # (candidate, triangle) pair dominates the filter: gathers are flat and contiguous.
-    k = (lam_c[tj] / np.maximum(lam[cand], EPS)[ci]).argmin(axis=1)
-    flat = 3 * ci + k
-    a, b, c = (np.ascontiguousarray(planes[:, :, q]).ravel()[flat][:, None] for q in range(3))
-    # Label the triangle's vertices by height over the facet plane (Eq. 6 with δh).
-    corners_xyz = xyz[all_tris[tri_ids]]
-    tx, ty, tz = (np.ascontiguousarray(corners_xyz[:, :, q]) for q in range(3))  # (T, 3) each
-    d = tz[tj] - (a * tx[tj] + b * ty[tj] + c)
-    n_on = np.count_nonzero(d <= p.delta_h, axis=1)
+    normals = _facet_normals(tin.points[tin.simplices[base_simplex]], xyz[free[cand]])
+    # Which facet holds each triangle's centroid (the k of _facet_t): the least λc[k]/λa[k].
+    inv_a = np.ascontiguousarray((1.0 / np.maximum(lam[cand], EPS)).T)  # (base vertex, C)
+    r0, r1, r2 = (lam_c[q][tj] * inv_a[q][ci] for q in range(3))
+    k = np.where(r1 < r0, 1, 0)
+    k[r2 < np.minimum(r0, r1)] = 2
+    rise = (h[cand] * inv_a).ravel()[k * n_cand + ci]  # H / λa[k]
+    n_on = np.zeros(len(ci), np.int8)
+    at = k * len(tri_ids) + tj
+    for v in range(3):
+        n_on += h_v[v][tj] - lam_vk[v].ravel()[at] * rise <= p.delta_h
     # Offs cost nothing (their length is the −log2 N_offs term): angles only for ons and bufs.
     labelled = np.flatnonzero(n_on > 0)
     dtheta = angle_between(tri_normals[tri_ids[tj[labelled]]], normals[ci[labelled], k[labelled]])
