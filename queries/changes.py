@@ -13,6 +13,7 @@ match in one version and not the other.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -109,24 +110,28 @@ def _surface(nodes: NDArray[np.float64]) -> NDArray[np.float64]:
     return fill_lines_stack(nodes, passes=2, cells=cells.ravel())
 
 
-def _moved_tiles(
-    la: NodeLattice,
-    lb: NodeLattice,
-    xg: NDArray[np.int64],
-    yg: NDArray[np.int64],
-    which: NDArray[np.intp],
-    lod: float,
-) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.bool_]]:
-    """The tiles ``which`` that can move (indices), the height change at their 3 × 3 nodes, and
-    whether each moved: at least three of its nine nodes beyond ``lod``, since one node alone is
-    often an interpolation difference between the two sets of kept points."""
-    na, nb = la.tile_nodes(xg[which], yg[which]), lb.tile_nodes(xg[which], yg[which])
-    keep = np.flatnonzero(_may_move(na, nb, lod) >= 3)
-    surfaces = _surface(np.concatenate([na[keep], nb[keep]]))
-    dz = surfaces[len(keep) :] - surfaces[: len(keep)]
-    with np.errstate(invalid="ignore"):
-        moved = (np.abs(dz) > lod).sum(axis=1) >= 3
-    return which[keep], dz, moved
+@dataclass(frozen=True)
+class _Tiles:
+    """The tiles both versions hold at one level, their stored points and the LoD."""
+
+    xg: NDArray[np.int64]
+    yg: NDArray[np.int64]
+    before: NodeLattice
+    after: NodeLattice
+    lod: float
+
+    def moved(self, which: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.bool_]]:
+        """The tiles ``which`` that can move (indices), the height change at their 3 × 3 nodes,
+        and whether each moved: at least three of its nine nodes beyond the LoD, since one node
+        alone is often an interpolation difference between the two sets of kept points."""
+        xg, yg = self.xg[which], self.yg[which]
+        na, nb = self.before.tile_nodes(xg, yg), self.after.tile_nodes(xg, yg)
+        keep = np.flatnonzero(_may_move(na, nb, self.lod) >= 3)
+        surfaces = _surface(np.concatenate([na[keep], nb[keep]]))
+        dz = surfaces[len(keep) :] - surfaces[: len(keep)]
+        with np.errstate(invalid="ignore"):
+            moved = (np.abs(dz) > self.lod).sum(axis=1) >= 3
+        return which[keep], dz, moved
 
 
 def _regions(
@@ -160,12 +165,8 @@ def _regions(
 
 
 def _grow(
-    la: NodeLattice,
-    lb: NodeLattice,
-    xg: NDArray[np.int64],
-    yg: NDArray[np.int64],
+    tiles: _Tiles,
     valid: NDArray[np.bool_],
-    lod: float,
     tested: NDArray[np.intp],
     dz: NDArray[np.float64],
     moved: NDArray[np.bool_],
@@ -173,13 +174,14 @@ def _grow(
     level: int,
 ) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
     """Grow the changed tiles ``seeds`` over neighbours whose surface moved as well, ring by
-    ring until none is added: the tiles (indices into ``xg``) and their node height changes.
+    ring until none is added: the tiles (indices into ``tiles.xg``) and their node height changes.
 
     A wall built across a slope can leave a tile's template unchanged, and a raised
     platform keeps its flat tiles flat: the category change starts a region, and the
     height change decides how far it reaches. ``tested``, ``dz`` and ``moved`` are the
     tiles already compared (those whose category differs).
     """
+    xg, yg = tiles.xg, tiles.yg
     i = ((xg - xg.min()) // level).astype(np.intp)
     j = ((yg - yg.min()) // level).astype(np.intp)
     index = np.full((j.max() + 3, i.max() + 3), -1, np.intp)  # a border of −1 around the tiles
@@ -198,7 +200,7 @@ def _grow(
         near = near[~taken[near] & (row[near] != -2)]
         unknown = near[row[near] == -1]
         if len(unknown):
-            t, d, m = _moved_tiles(la, lb, xg, yg, unknown, lod)
+            t, d, m = tiles.moved(unknown)
             row[unknown] = -2
             row[t[m]] = count + np.arange(int(m.sum()))
             parts.append(d[m])
@@ -232,16 +234,15 @@ def detect(
         return []
     lod = level_of_detection(db, before, after)
     lattices = {name: _lattice(db, name, level, xg[differ], yg[differ]) for name in (before, after)}
-    tested, dz, moved = _moved_tiles(lattices[before], lattices[after], xg, yg, differ, lod)
+    tiles = _Tiles(xg, yg, lattices[before], lattices[after], lod)
+    tested, dz, moved = tiles.moved(differ)
     if not moved.any():
         return []
     first = tested[moved]
     seeds = [first[m] for m, _ in _regions(xg[first], yg[first], dz[moved], lod, level, min_tiles)]
     if not seeds:
         return []
-    grown, dz = _grow(
-        lattices[before], lattices[after], xg, yg, valid, lod, tested, dz, moved, np.concatenate(seeds), level
-    )
+    grown, dz = _grow(tiles, valid, tested, dz, moved, np.concatenate(seeds), level)
     xg, yg = xg[grown], yg[grown]
     regions = []
     for members, mean_dz in _regions(xg, yg, dz, lod, level, min_tiles):
