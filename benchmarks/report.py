@@ -80,6 +80,11 @@ def ground_section(out: list[str]) -> None:
                         + " |"
                     )
         out.append("")
+        out += (
+            ["Target ≤ 60 s per site cloud.", ""]
+            if name == "ground_speed_sohn"
+            else ["Target ≥ 100 k points/s on one core for the default filter, faster than both peers.", ""]
+        )
 
 
 def categorise_section(out: list[str]) -> None:
