@@ -43,7 +43,7 @@ def test_facet_share_matches_geometry():
     lam_a = np.array([[1 / 3, 1 / 3, 1 / 3]])
     vertex = np.array([[1.0, 0.0, 0.0]])
     lam_p = (lam_a + vertex) / 2
-    t, k = _facet_t(lam_p, lam_a)
+    t, k = _facet_t(list(lam_p.T), list(lam_a.T))
     assert t[0] == pytest.approx(0.5)
     assert k[0] in (1, 2)
 

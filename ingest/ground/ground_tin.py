@@ -143,7 +143,7 @@ def _local_insert(
     row = np.full(k, -1, np.intp)
     row[keep] = np.arange(int(keep.sum()))
     points = np.vstack([tin.points, new])
-    centre, radius2 = _circles(np.vstack([tin.points[:, :2] - tin.origin, new_xy]), fresh)
+    centre, radius2 = _circles(all_xy, after.simplices[inside])  # the cavity's own coordinates
     out = GroundTin(
         points,
         tin.origin,

@@ -160,7 +160,7 @@ def upward(
         ci, mi = cross_pairs(simplex[cand], simplex)
         columns = np.ascontiguousarray(lam.T)
         apex = cand[ci]
-        t, k = _least_ratio([c[mi] for c in columns], [c[apex] for c in columns])
+        t, k = _facet_t([c[mi] for c in columns], [c[apex] for c in columns])
         below = h[mi] - t * h[apex] < -p.below_tolerance
         facet_below = np.bincount(3 * ci[below] + k[below], minlength=3 * len(cand)).reshape(-1, 3) > 0
         rejected = facet_below.sum(axis=1) >= p.reject_facets
@@ -178,28 +178,26 @@ def upward(
 
 
 def _facet_t(
-    lam_p: NDArray[np.float64], lam_a: NDArray[np.float64]
+    p: list[NDArray[np.float64]], a: list[NDArray[np.float64]]
 ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """Share of the apex in point p's height on the lateral facet that holds it.
 
-    With barycentrics λp of p and λa of the apex in the base triangle (M, 3), p lies in
-    the facet opposite the vertex k minimising λp[k]/λa[k] =: t, and the facet's
-    height over the base plane at p is t·H. Returns (t, k).
+    With barycentrics λp of p and λa of the apex in the base triangle, given as their three
+    columns ``p`` and ``a``, p lies in the facet opposite the vertex k minimising
+    λp[k]/λa[k] =: t, and the facet's height over the base plane at p is t·H. Returns (t, k).
     """
-    return _least_ratio([lam_p[:, q] for q in range(3)], [lam_a[:, q] for q in range(3)])
+    least, k = _least_of_three([p[q] / np.maximum(a[q], EPS) for q in range(3)])
+    return np.clip(least, 0.0, 1.0), k
 
 
-def _least_ratio(
-    p: list[NDArray[np.float64]], a: list[NDArray[np.float64]]
-) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
-    """:func:`_facet_t` on the barycentrics' three columns: elementwise operations on 1-D
-    arrays run several times faster than reductions along a short last axis."""
-    r = [p[q] / np.maximum(a[q], EPS) for q in range(3)]
+def _least_of_three(r: list[NDArray[np.float64]]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """Elementwise least of three arrays and which one it is (the first on ties): on 1-D
+    columns this runs several times faster than ``argmin`` along a short last axis."""
     k = np.where(r[1] < r[0], 1, 0)
     least = np.minimum(r[0], r[1])
     third = r[2] < least
     k[third] = 2
-    return np.clip(np.where(third, r[2], least), 0.0, 1.0), k
+    return np.where(third, r[2], least), k
 
 
 def _facet_normals(base: NDArray[np.float64], apex: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -255,9 +253,7 @@ def _description_lengths(
     normals = _facet_normals(tin.points[tin.simplices[base_simplex]], xyz[free[cand]])
     # Which facet holds each triangle's centroid (the k of _facet_t): the least λc[k]/λa[k].
     inv_a = np.ascontiguousarray((1.0 / np.maximum(lam[cand], EPS)).T)  # (base vertex, C)
-    r0, r1, r2 = (lam_c[q][tj] * inv_a[q][ci] for q in range(3))
-    k = np.where(r1 < r0, 1, 0)
-    k[r2 < np.minimum(r0, r1)] = 2
+    _, k = _least_of_three([lam_c[q][tj] * inv_a[q][ci] for q in range(3)])
     rise = (h[cand] * inv_a).ravel()[k * n_cand + ci]  # H / λa[k]
     n_on = np.zeros(len(ci), np.int8)
     at = k * len(tri_ids) + tj
