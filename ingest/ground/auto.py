@@ -10,9 +10,10 @@
    above that surface against a threshold that grows with the local slope; the
    ground so found makes the next surface and the test is repeated, which lets
    ground creep up breaks of slope that the square windows cut off.
-4. Once settled, long, narrow, low groups of object cells (earthworks) join the
-   ground and the passes go on; then free-standing walls do
-   (:mod:`ingest.ground.earthworks`).
+4. Once settled, long, narrow, low groups of object cells (earthworks,
+   :mod:`ingest.ground.earthworks`) join the ground and the passes go on; once
+   settled again, groups that rise smoothly out of the ground (hills,
+   :mod:`ingest.ground.hills`) do; last, free-standing walls.
 
 The surface used to be a TIN of the ground points. On the ISPRS samples the
 gap-filled corner grid is as accurate (3.95 % against 4.02 % mean total error)
@@ -31,6 +32,7 @@ from scipy import ndimage
 from ingest.ground.earthworks import elongated_objects, narrow_walls
 from ingest.ground.fill import fill_linear
 from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of
+from ingest.ground.hills import point_spacing, smooth_hills
 from ingest.ground.morphology import progressive_opening
 from ingest.ground.outliers import low_outliers
 
@@ -45,6 +47,7 @@ class AutoParams:
     below: float = 2.0  # points this far below the surface are not ground (m)
     refinements: int = 8  # at most; fewer once a pass changes under ``settled`` of the labels
     settled: float = 2e-4
+    stage_passes: int = 2  # refinement passes at most after a stage below hands over more ground
     pit_window: float = 8.0  # widest low-outlier cluster (m, radius)
     pit_slope: float = 3.0  # pit walls steeper than this, beyond pit_depth, are not terrain
     pit_depth: float = 2.0
@@ -58,6 +61,11 @@ class AutoParams:
     wall_width: float = 3.5  # widest band of cells a wall's points fill (m)
     wall_roughness: float = 0.15  # a wall's top is level within this (m, median absolute deviation)
     wall_tall_share: float = 0.1
+    hill_spacings: float = 1.5  # a hill's cells span this many point spacings (at least ``cell``)
+    hill_rise: float = 0.5  # a hill lies under a cone of this rise and slope over the ground beside it
+    hill_slope: float = 1.0
+    hill_share: float = 0.95
+    hill_area: float = 100.0  # m²
 
 
 def ground_surface(
@@ -95,8 +103,13 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
     current = np.where(~objects & ~pits, idx, -1)
     at_points = grid.corner_sampler(pts[:, :2])
     is_ground = np.zeros(len(pts), bool)
-    earthworks_done = False
-    for step in range(p.refinements + 2):
+    # Once the passes settle, each stage may hand them more ground, once: steep-sided ridges,
+    # dikes and embankment crests (long, narrow, low groups of object cells), then hills
+    # (groups that rise smoothly out of the ground).
+    stages = ["earthworks", "hills"]
+    passes = p.refinements + 1
+    while True:
+        passes -= 1
         surface, slope_map = ground_surface(grid, pts, current)
         h = pts[:, 2] - at_points(surface)
         before = is_ground
@@ -104,17 +117,19 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
         # The next surface rests on the lowest ground point per cell: noise and
         # low clutter among the accepted points would otherwise lift it.
         current = cells.lowest(is_ground)
-        if np.count_nonzero(before != is_ground) >= p.settled * len(pts) and step < p.refinements:
+        if np.count_nonzero(before != is_ground) >= p.settled * len(pts) and passes > 0:
             continue
-        if earthworks_done:
+        more = None
+        while stages and more is None:
+            if stages.pop(0) == "earthworks":
+                found = _earthworks(grid, surface, zmin, idx, current, p)
+            else:
+                found = _hills(grid, pts, is_ground, p)
+            more = found if found.any() else None
+        if more is None:
             break
-        # Settled: steep-sided ridges, dikes and embankment crests are still cut off.
-        # Long, narrow, low groups of object cells are terrain; the passes go on with them.
-        earthworks_done = True
-        earthworks = _earthworks(grid, surface, zmin, idx, current, p)
-        if not earthworks.any():
-            break
-        current = np.where(earthworks, idx, current)
+        current = np.where(more, idx, current)
+        passes = p.stage_passes
     is_ground |= _walls(grid, pts, h, is_ground, p)
     ground[keep[is_ground]] = True
     return ground
@@ -147,6 +162,26 @@ def _walls(
         max_tall_share=p.wall_tall_share,
     )
     return low & walls[row, col]
+
+
+def _hills(grid: Grid, pts: NDArray[np.float64], is_ground: NDArray[np.bool_], p: AutoParams) -> NDArray[np.bool_]:
+    """Cells of ``grid`` whose lowest point is the lowest of a hill's cell
+    (:func:`ingest.ground.hills.smooth_hills`)."""
+    cell = max(p.cell, p.hill_spacings * point_spacing(pts[:, :2]))
+    found = np.flatnonzero(
+        smooth_hills(
+            pts,
+            is_ground,
+            cell=cell,
+            rise=p.hill_rise,
+            slope=p.hill_slope,
+            min_share=p.hill_share,
+            min_area=p.hill_area,
+        )
+    )
+    out = np.zeros(grid.shape, bool)
+    out[grid.index(pts[found, :2])] = True
+    return out
 
 
 def _earthworks(

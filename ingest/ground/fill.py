@@ -32,20 +32,23 @@ def fill_nearest(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]
     return raster[ri, ci]
 
 
-def _across_rows(raster: NDArray[np.floating[Any]]) -> tuple[NDArray[np.floating[Any]], NDArray[np.floating[Any]]]:
-    """Per cell, the straight line along its row between the filled cells either side, and that gap's
-    length (inf where the row has no filled cell on one side)."""
-    rows, cols = raster.shape
+def _across_rows(
+    raster: NDArray[np.floating[Any]], hr: NDArray[np.intp], hc: NDArray[np.intp]
+) -> tuple[NDArray[np.floating[Any]], NDArray[np.floating[Any]]]:
+    """At the holes (hr, hc) of a 2-D raster, the straight line along the row between the filled
+    cells either side, and that gap's length (NaN and inf where the row has no filled cell on one
+    side)."""
+    cols = raster.shape[1]
     filled = ~np.isnan(raster)
-    col = np.broadcast_to(np.arange(cols), raster.shape)
-    left = np.maximum.accumulate(np.where(filled, col, -1), axis=1)
-    right = np.minimum.accumulate(np.where(filled, col, cols)[:, ::-1], axis=1)[:, ::-1]
+    # int32: the scans run over the whole raster, and half the bytes are half the time
+    col = np.arange(cols, dtype=np.int32)
+    left = np.maximum.accumulate(np.where(filled, col, np.int32(-1)), axis=1)[hr, hc]
+    right = np.minimum.accumulate(np.where(filled, col, np.int32(cols))[:, ::-1], axis=1)[:, ::-1][hr, hc]
     bracketed = (left >= 0) & (right < cols)
-    row = np.arange(rows)[:, None]
-    lv = raster[row, np.clip(left, 0, cols - 1)]
-    rv = raster[row, np.clip(right, 0, cols - 1)]
+    lv = raster[hr, np.clip(left, 0, cols - 1)]
+    rv = raster[hr, np.clip(right, 0, cols - 1)]
     gap = (right - left).astype(raster.dtype)
-    t = np.where(bracketed, (col - left).astype(raster.dtype) / np.maximum(gap, 1), 0)
+    t = np.where(bracketed, (hc - left).astype(raster.dtype) / np.maximum(gap, 1), 0)
     return np.where(bracketed, lv + t * (rv - lv), np.nan), np.where(bracketed, gap, np.inf)
 
 
@@ -66,17 +69,21 @@ def fill_lines(raster: NDArray[np.floating[Any]], *, passes: int = 1) -> NDArray
     if not holes.any():
         return raster
     shape = raster.shape
-    v_row, g_row = (a.reshape(shape) for a in _across_rows(raster.reshape(-1, shape[-1])))
-    turned = np.swapaxes(raster, -1, -2)
-    v_col, g_col = (
-        np.swapaxes(a.reshape(turned.shape), -1, -2) for a in _across_rows(turned.reshape(-1, shape[-2]))
-    )
-    # filled cells have gap 0 and are kept as they are; unbracketed ones have gap inf, weight 0
+    # A stack is one tall raster for the rows and one wide raster for the columns; only
+    # the holes are interpolated.
+    flat = raster.reshape(-1, shape[-2], shape[-1])
+    k, hr, hc = np.nonzero(holes.reshape(flat.shape))
+    v_row, g_row = _across_rows(flat.reshape(-1, shape[-1]), k * shape[-2] + hr, hc)
+    turned = np.swapaxes(flat, -1, -2).reshape(-1, shape[-2])
+    v_col, g_col = _across_rows(turned, k * shape[-1] + hc, hr)
+    # unbracketed lines have gap inf, weight 0
     w_row = 1.0 / np.maximum(g_row, 1.0) ** 2
     w_col = 1.0 / np.maximum(g_col, 1.0) ** 2
     weight = w_row + w_col
     line = (np.nan_to_num(v_row) * w_row + np.nan_to_num(v_col) * w_col) / np.where(weight > 0, weight, 1.0)
-    return np.where(holes & (weight > 0), line, raster)
+    out = flat.copy()
+    out[k, hr, hc] = np.where(weight > 0, line, np.nan)
+    return out.reshape(shape)
 
 
 def fill_linear(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:

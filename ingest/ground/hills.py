@@ -1,0 +1,76 @@
+"""Hills the ground filter would cut: object groups that rise smoothly out of the ground.
+
+The opening windows and the slope-scaled threshold cut the top off a steep hill,
+a spoil heap or a broad embankment whose sides rise faster than ground can creep
+up them, above all in sparse data, where one pass climbs one point spacing. What
+sets such a group apart from a building or a tree is how it meets the ground: a
+roof or a crown stands over the ground beside it, a hill starts at it. A group
+of object cells (cells holding no ground point) is terrain where nearly every
+cell's lowest point lies below a cone rising from the nearest ground point,
+``h <= rise + slope * d``, both on the group's rim and inside it, and the group is
+broad enough not to be a car or a shrub.
+
+The cells are sized to the point density (about 1.5 point spacings), so that a
+hill in sparse data is one group and not hundreds of single cells.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from ingest.ground.grids import CellSort, Grid
+
+
+def point_spacing(xy: NDArray[np.float64], *, block: float = 5.0) -> float:
+    """Mean point spacing (m) over the occupied part of the extent (blocks of ``block`` m)."""
+    grid = Grid.covering(xy, block)
+    row, col = grid.index(xy)
+    occupied = len(np.unique(row * grid.shape[1] + col))
+    return float(np.sqrt(occupied * block * block / max(len(xy), 1)))
+
+
+def smooth_hills(
+    xyz: NDArray[np.float64],
+    ground: NDArray[np.bool_],
+    *,
+    cell: float,
+    rise: float = 0.5,
+    slope: float = 1.0,
+    min_share: float = 0.95,
+    min_area: float = 100.0,
+) -> NDArray[np.bool_]:
+    """Points that are the lowest of their cell in a group of object cells that is a hill.
+
+    Parameters
+    ----------
+    xyz : (N, 3) points.
+    ground : (N,) the ground found so far.
+    cell : cell size (m) of the groups' grid.
+    rise, slope : the cone over the nearest ground point under which a hill's cells lie (m, rise/run).
+    min_share : least share of a group's cells, and of its rim cells, under the cone.
+    min_area : least area (m²) of a hill.
+    """
+    grid = Grid.covering(xyz[:, :2], cell)
+    cells = CellSort.of(grid, xyz)
+    lowest, lowest_ground = cells.lowest(), cells.lowest(ground)
+    has_ground = lowest_ground >= 0
+    objects = (lowest >= 0) & ~has_ground
+    out = np.zeros(len(xyz), bool)
+    if not objects.any() or not has_ground.any():
+        return out
+    _, (ri, ci) = ndimage.distance_transform_edt(~has_ground, return_indices=True)
+    near = lowest_ground[ri, ci]
+    own = np.where(objects, lowest, near)
+    d = np.hypot(xyz[own, 0] - xyz[near, 0], xyz[own, 1] - xyz[near, 1])
+    under = objects & (xyz[own, 2] - xyz[near, 2] <= rise + slope * d)
+    labels, n = ndimage.label(objects, structure=np.ones((3, 3)))
+    rim = objects & ndimage.binary_dilation(has_ground, structure=np.ones((3, 3)))
+    count, rims = (np.bincount(labels.ravel(), m.ravel(), minlength=n + 1) for m in (objects, rim))
+    ok = np.bincount(labels.ravel(), under.ravel(), minlength=n + 1) >= min_share * count
+    ok &= np.bincount(labels.ravel(), (under & rim).ravel(), minlength=n + 1) >= min_share * rims
+    ok &= count * cell * cell >= min_area
+    ok[0] = False
+    out[lowest[ok[labels] & objects]] = True
+    return out
