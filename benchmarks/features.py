@@ -1,9 +1,10 @@
 """Ditch and ridge queries against synthetic truth: recall and precision by length.
 
 A true line counts as found where a reported line lies within 2 m of it; a reported
-line is right where a true line of that kind lies within 2 m. Walls are ridge forms
-(1–1.6 m wide, 1–1.8 m high) the ridge filter finds as well: precision is given both
-against ridges alone and against ridges and walls; recall is against ridges alone.
+line is right where a true line of that kind lies within 2 m. Walls (1–1.6 m wide,
+1–1.8 m high) and ridges (3–6 m wide) make the same tiles; the ridge and wall filters
+part them by their shoulders (queries/shoulder.py). ``precision_forms`` counts a
+reported ridge or wall right near either.
     python -m benchmarks.features [--seeds 1,2,3] [--size 300] [--density 4]
 """
 
@@ -40,6 +41,7 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
     for kind, cut, forms in (
         ("ditch", lambda f: f.kind == "ditch" and f.size >= 0.5 and f.width >= 1.5, ("ditch",)),
         ("ridge", lambda f: f.kind == "ridge", ("ridge", "wall")),
+        ("wall", lambda f: f.kind == "wall", ("ridge", "wall")),
     ):
         truth = [f.geometry for f in scene.features if cut(f)]
         t0 = time.perf_counter()
@@ -61,7 +63,7 @@ def main() -> None:
     runs, settings = synthetic_runs(__doc__, evaluate)
     summary = {
         k: {m: float(np.mean([runs[s][k][m] for s in runs])) for m in ("recall", "precision", "precision_forms")}
-        for k in ("ditch", "ridge")
+        for k in ("ditch", "ridge", "wall")
     }
     print(summary)
     print(save("features", {"runs": runs, "mean": summary, **settings}))

@@ -165,7 +165,7 @@ def features_section(out: list[str]) -> None:
         f"`python -m benchmarks.features` (size {doc['size']} m, {doc['density']} pulses/m²). "
         f"Machine: {_machine(doc)}.",
         "",
-        "| seed | kind | recall | precision | precision against every true ditch / ridges and walls | query s |",
+        "| seed | kind | recall | precision | precision against every true ditch / every ridge and wall | query s |",
         "|---|---|---|---|---|---|",
     ]
     for seed, kinds in doc["runs"].items():
@@ -189,9 +189,9 @@ def features_section(out: list[str]) -> None:
     out += [
         "",
         "Target recall and precision ≥ 0.9 by length. Recall counts ditches ≥ 0.5 m deep and ≥ 1.5 m wide, "
-        "and ridges. Precision is given two ways: against that same truth, and against every true ditch "
-        "(shallower and narrower ones are real ditches too) or every ridge and wall (walls are ridge forms "
-        "the filter finds as well); see `benchmarks/features.py`.",
+        "ridges and walls. Precision is given two ways: against that same truth, and against every true ditch "
+        "(shallower and narrower ones are real ditches too) or every ridge and wall (the ridge and wall "
+        "filters part one form by its shoulder); see `benchmarks/features.py`.",
         "",
     ]
 

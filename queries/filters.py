@@ -68,6 +68,8 @@ class Filter:
     min_measure: float = 0.0
     gap: int = 0
     min_elongation: float = 0.0
+    min_shoulder: float | None = None  # queries.shoulder: a ridge's flanks stand, a wall's do not
+    max_shoulder: float | None = None
 
 
 @cache
@@ -115,6 +117,8 @@ def parse_filter(doc: dict[str, Any]) -> Filter:
         float(doc.get("min_measure", 0.0)),
         int(doc.get("gap", 0)),
         float(doc.get("min_elongation", 0.0)),
+        doc.get("min_shoulder"),
+        doc.get("max_shoulder"),
     )
 
 
@@ -147,6 +151,7 @@ class Match:
     geometry: shapely.Geometry
     length: float
     measure: float
+    shoulder: float = float("nan")  # queries.shoulder; NaN where not measured
 
 
 # For each category, the sub-parts its feature touches on the tile boundary.

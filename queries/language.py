@@ -20,7 +20,7 @@ TOKEN = re.compile(
     r"""|(?P<string>"[^"\n]*")|(?P<op><=|>=|!=|=|<|>)|(?P<punct>[(),])"""
 )
 KEYWORDS = {"select", "from", "to", "where", "and", "at", "level", "in", "bbox", "category"}
-ATTRIBUTES = {"length", "tiles", "depth", "height", "area", "dz"}
+ATTRIBUTES = {"length", "tiles", "depth", "height", "shoulder", "area", "dz"}
 LEVELS = {2, 4, 8, 16}
 
 

@@ -9,6 +9,7 @@ from numpy.typing import NDArray
 from queries.centreline import centrelines, elongation
 from queries.filters import BREAK_LINES, FEATURES, Filter, Match, builtin_filters, components, tile_lines
 from queries.relief import NodeLattice, node_lattice, tile_relief
+from queries.shoulder import shoulders
 from tdb.database import Database
 from tdb.errors import FilterError
 
@@ -67,7 +68,8 @@ def match_tiles(
 ) -> list[Match]:
     """The objects ``flt`` finds among the tiles, with ``lattice`` holding the stored points
     around them. Without ``shapes`` the matches
-    carry their tiles and measure only (empty geometry, length NaN): what typing needs."""
+    carry their tiles and measure only (empty geometry, length NaN, no shoulder test: a
+    shoulder needs the centre line): what typing needs, where a ridge and a wall are one form."""
     lv = level
     cand = np.flatnonzero(np.isin(FEATURES[code], list(flt.features)))
     if len(cand) == 0:
@@ -97,8 +99,17 @@ def match_tiles(
         geoms = centrelines(ex[tiles], ey[tiles], owner, link=link, count=len(found))
     else:  # a step has no extreme line; polygons come from the tiles
         geoms = [shapely.LineString()] * len(found)
+    shoulder = np.full(len(found), np.nan)
+    if flt.linear and flt.measure != "step" and (flt.min_shoulder is not None or flt.max_shoulder is not None):
+        shoulder = shoulders(lattice, geoms, np.array([m for _, m in found]), measure=flt.measure)
     out = []
-    for (g, measure), geom in zip(found, geoms):
+    for (g, measure), geom, sh in zip(found, geoms, shoulder):
+        # an unmeasured shoulder passes a least one and fails a largest one: a form is a ridge
+        # (or a ditch) unless it is shown to be narrow
+        if flt.min_shoulder is not None and sh < flt.min_shoulder:
+            continue
+        if flt.max_shoulder is not None and not sh <= flt.max_shoulder:
+            continue
         if flt.linear:
             if geom.is_empty:  # no extreme line: follow the break lines
                 lines = [line for line in tile_lines(xg[g], yg[g], code[g], lv) if line is not None]
@@ -108,5 +119,5 @@ def match_tiles(
             # tiles never overlap: a coverage union is exact and much faster than a general one
             geom = shapely.coverage_union_all(shapely.box(xg[g], yg[g], xg[g] + lv, yg[g] + lv))
             length = 0.0
-        out.append(Match(flt.name, lv, keep[g], geom, length, measure))
+        out.append(Match(flt.name, lv, keep[g], geom, length, measure, float(sh)))
     return out

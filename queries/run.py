@@ -5,6 +5,7 @@ from __future__ import annotations
 import operator
 from typing import Any
 
+import numpy as np
 import shapely
 
 from queries.language import Query, parse
@@ -53,6 +54,8 @@ def run(db: Database, text: str) -> list[dict[str, Any]]:
             "length": round(m.length, 2),
             ("depth" if m.filter in ("ditch", "pit") else "height"): round(m.measure, 3),
         }
+        if np.isfinite(m.shoulder):
+            props["shoulder"] = round(m.shoulder, 2)
         if _keep(props, q):
             out.append({"type": "Feature", "geometry": shapely.geometry.mapping(m.geometry), "properties": props})
     return out

@@ -93,7 +93,7 @@ def test_keyword_soup_parses_or_raises_query_error(words):
 
 
 def test_builtin_filters_validate():
-    assert set(builtin_filters()) == {"ditch", "ridge", "embankment", "pit", "mound"}
+    assert set(builtin_filters()) == {"ditch", "ridge", "wall", "embankment", "pit", "mound"}
 
 
 @pytest.mark.parametrize(

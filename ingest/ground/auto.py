@@ -47,7 +47,7 @@ class AutoParams:
     below: float = 2.0  # points this far below the surface are not ground (m)
     refinements: int = 8  # at most; fewer once a pass changes under ``settled`` of the labels
     settled: float = 2e-4
-    stage_passes: int = 2  # refinement passes at most after a stage below hands over more ground
+    stage_passes: int = 1  # refinement passes at most after a stage below hands over more ground
     pit_window: float = 8.0  # widest low-outlier cluster (m, radius)
     pit_slope: float = 3.0  # pit walls steeper than this, beyond pit_depth, are not terrain
     pit_depth: float = 2.0

@@ -20,15 +20,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from ingest.ground.grids import CellSort, Grid
+from ingest.ground.grids import CellSort, Grid, occupied_area
 
 
 def point_spacing(xy: NDArray[np.float64], *, block: float = 5.0) -> float:
     """Mean point spacing (m) over the occupied part of the extent (blocks of ``block`` m)."""
-    grid = Grid.covering(xy, block)
-    row, col = grid.index(xy)
-    occupied = len(np.unique(row * grid.shape[1] + col))
-    return float(np.sqrt(occupied * block * block / max(len(xy), 1)))
+    return float(np.sqrt(occupied_area(xy, block=block) / max(len(xy), 1)))
 
 
 def smooth_hills(

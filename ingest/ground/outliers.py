@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from ingest.ground.fill import fill_nearest
-from ingest.ground.grids import CellSort, Grid, lowest_per_cell
+from ingest.ground.grids import CellSort, Grid, lowest_per_cell, occupied_area
 from ingest.ground.morphology import progressive_opening
 
 
@@ -24,17 +24,17 @@ def _block_floor(xyz: NDArray[np.float64], *, k: int, rank: int) -> NDArray[np.f
     """Per point, the ``rank``-th lowest z among the other points of its 3 × 3 block."""
     xy = xyz[:, :2]
     # density over the occupied area, so gaps and an irregular outline do not inflate the cells
-    coarse = Grid.covering(xy, 4.0)
-    r4, c4 = coarse.index(xy)
-    occupied = len(np.unique(r4 * coarse.shape[1] + c4))
-    density = len(xyz) / (occupied * 16.0)
+    density = len(xyz) / occupied_area(xy, block=4.0)
     grid = Grid.covering(xy, max(float(np.sqrt((k + 1) / (9.0 * density))), 1e-3))
     low = CellSort.of(grid, xyz).lowest_z(xyz, rank + 1)
     padded = np.pad(low, ((1, 1), (1, 1), (0, 0)), constant_values=np.inf)
     rows, cols = grid.shape
-    block = np.concatenate(
-        [padded[i : i + rows, j : j + cols] for i in range(3) for j in range(3)], axis=2
-    )  # (rows, cols, 9 * (rank + 1))
+    # The lowest of the 3 × 3 block are the lowest of each row of three's lowest: two narrow
+    # partitions instead of one over all nine cells' values (a third of the memory traffic).
+    row3 = np.concatenate([padded[:, j : j + cols] for j in range(3)], axis=2)
+    row3.partition(rank, axis=2)
+    row3 = row3[:, :, : rank + 1]
+    block = np.concatenate([row3[i : i + rows] for i in range(3)], axis=2)
     block.partition(rank, axis=2)
     block = np.sort(block[:, :, : rank + 1], axis=2)
     r, c = grid.index(xy)

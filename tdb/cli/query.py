@@ -26,6 +26,7 @@ def command(text: str, db_path: Path, fmt: str, out: Path | None) -> None:
     Examples:
       tdb query 'SELECT ditch FROM "2020" WHERE length > 20' --db park.tdb
       tdb query 'SELECT ridge FROM v1 WHERE bbox(500000, 5500000, 500400, 5500400) AT LEVEL 2' --db a.tdb
+      tdb query 'SELECT wall FROM v1 WHERE length > 15' --db a.tdb --format table
       tdb query 'SELECT tiles FROM v1 WHERE category IN (10, 16)' --db a.tdb --format csv --out valleys.csv
     """
     import tdb
