@@ -165,7 +165,7 @@ def features_section(out: list[str]) -> None:
         f"`python -m benchmarks.features` (size {doc['size']} m, {doc['density']} pulses/m²). "
         f"Machine: {_machine(doc)}.",
         "",
-        "| seed | kind | recall | precision | precision against every true ditch / every ridge and wall | query s |",
+        "| seed | kind | recall | precision | precision against every ditch / every ridge and wall | query s |",
         "|---|---|---|---|---|---|",
     ]
     for seed, kinds in doc["runs"].items():
