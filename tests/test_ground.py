@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from ingest.ground import classify_ground, low_outliers
 from ingest.ground.evaluate import accuracy
@@ -149,3 +151,25 @@ def test_default_removes_isprs_low_outliers():
     # The reference marks the deep low points as objects; none may be called ground.
     deep = cloud.z < np.percentile(cloud.z, 50) - 20
     assert deep.any() and not ground[deep].any()
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), share=st.floats(0.0, 0.9), n=st.integers(1, 14))
+def test_nearest_kept_neighbours_match_a_tree_of_the_kept_points(seed, share, n):
+    # The low-outlier test's second pass asks one tree of all points for the nearest points
+    # that are not first-pass outliers; a tree built without them must give the same distances.
+    from scipy.spatial import cKDTree
+
+    from ingest.ground.outliers import _nearest_kept
+
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 50, (300, 2))
+    skip = rng.random(300) < share
+    queries = rng.uniform(0, 50, (25, 2))
+    got = _nearest_kept(cKDTree(xy), queries, skip, n)
+    kept = np.flatnonzero(~skip)
+    want = min(n, len(kept))
+    assert got.shape == (25, want) and not skip[got].any()
+    d_got = np.hypot(*(xy[got] - queries[:, None, :]).transpose(2, 0, 1))
+    d_want, _ = cKDTree(xy[kept]).query(queries, k=want)
+    np.testing.assert_allclose(d_got, np.asarray(d_want).reshape(25, want))

@@ -82,8 +82,10 @@ def low_outliers(
 
 def _nearest_kept(tree: cKDTree, xy: NDArray[np.float64], skip: NDArray[np.bool_], n: int) -> NDArray[np.intp]:
     """(len(xy), n) indices of the ``n`` nearest points of ``tree`` that ``skip`` does not mark,
-    nearest first (fewer than ``n`` kept points: as many as there are, padded with the last)."""
-    want = min(n, int(tree.n))
+    nearest first (all of them, where fewer than ``n`` are not marked)."""
+    want = min(n, int(np.count_nonzero(~skip)))
+    if want == 0:
+        return np.zeros((len(xy), 0), np.intp)
     k = want
     while True:
         _, nb = tree.query(xy, k=k)
