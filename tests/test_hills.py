@@ -38,11 +38,13 @@ def test_point_spacing_follows_the_density():
 def test_the_default_filter_keeps_a_steep_hill_in_sparse_data_and_cuts_the_building(seed):
     xyz, hill, roof = _scene(seed)
     ground = auto_ground(xyz)
-    assert ground[hill].mean() > 0.8  # the convex cap above the last seeds may be cut
+    # Over 200 seeds: 0.76-1.0 kept (median 0.90; the convex cap above the last seeds may be cut),
+    # against at most 0.61 (median 0.32) without the stage.
+    assert ground[hill].mean() > 0.7
     assert ground[roof].mean() < 0.05
     # Without the hill stage the hill's top is cut: the test above can fail.
     no_hills = auto_ground(xyz, params=AutoParams(hill_area=1e9))
-    assert no_hills[hill].mean() < ground[hill].mean() - 0.1
+    assert no_hills[hill].mean() < ground[hill].mean() - 0.2
 
 
 def test_a_group_standing_over_the_ground_is_no_hill():
@@ -53,4 +55,33 @@ def test_a_group_standing_over_the_ground_is_no_hill():
     assert not found[roof].any()
     # Too small a hill (min_area) or too gentle a cone (slope) finds nothing.
     assert not smooth_hills(xyz, ~(hill | roof), cell=3.5, min_area=1e4).any()
-    assert not smooth_hills(xyz, ~(hill | roof), cell=3.5, slope=0.05, rise=0.0).any()
+    gentle = {"rise": 0.0, "slope": 0.05, "steep_slope": 0.05}
+    assert not smooth_hills(xyz, ~(hill | roof), cell=3.5, **gentle).any()
+
+
+def _heap(seed: int):
+    """Sparse points over a flat-topped heap 8 m high, 32 m across, whose sides rise at 1.4
+    (54°, steeper than the 45° cone), and a 15 m building 8 m high; the ground found so far
+    has crept 0.3 m up the heap's foot."""
+    rng = np.random.default_rng(seed)
+    n = int(200 * 200 * 0.17)
+    x, y = rng.uniform(0, 200, n), rng.uniform(0, 200, n)
+    heap = 8.0 * np.clip((16 - np.hypot(x - 60, y - 100)) / (8.0 / 1.4), 0, 1)
+    roof = (np.abs(x - 140) < 7.5) & (np.abs(y - 100) < 7.5)
+    xyz = np.c_[x, y, 100 + 0.02 * x + heap + np.where(roof, 8.0, 0.0) + rng.normal(0, 0.05, n)]
+    return xyz, heap > 0.3, roof
+
+
+def test_a_steep_heap_that_meets_the_ground_is_kept_and_a_roof_is_not():
+    gentle, steep, no_foot = 0, 0, 0
+    for seed in range(6):
+        xyz, top, roof = _heap(seed)
+        others = ~(top | roof)
+        gentle += smooth_hills(xyz, others, cell=3.5, steep_slope=1.0)[top].any()  # the 45° cone alone
+        found = smooth_hills(xyz, others, cell=3.5)
+        steep += found[top].any()
+        assert not found[roof].any()
+        # without a rim that meets the ground the steeper cone does not apply
+        no_foot += smooth_hills(xyz, others, cell=3.5, foot_share=2.0)[top].any()
+    assert gentle == 0 and no_foot == 0
+    assert steep >= 4  # of 6 (five when measured)

@@ -66,6 +66,10 @@ class AutoParams:
     hill_slope: float = 1.0
     hill_share: float = 0.95
     hill_area: float = 100.0  # m²
+    hill_steep_slope: float = 1.5  # ... or a steeper cone, where the group's rim meets the ground:
+    hill_steep_share: float = 0.9
+    hill_foot: float = 1.0  # rim cells at most this far above the ground beside them (m)
+    hill_foot_share: float = 0.1
 
 
 def ground_surface(
@@ -177,6 +181,10 @@ def _hills(grid: Grid, pts: NDArray[np.float64], is_ground: NDArray[np.bool_], p
             slope=p.hill_slope,
             min_share=p.hill_share,
             min_area=p.hill_area,
+            steep_slope=p.hill_steep_slope,
+            steep_share=p.hill_steep_share,
+            foot=p.hill_foot,
+            foot_share=p.hill_foot_share,
         )
     )
     out = np.zeros(grid.shape, bool)

@@ -8,7 +8,10 @@ roof or a crown stands over the ground beside it, a hill starts at it. A group
 of object cells (cells holding no ground point) is terrain where nearly every
 cell's lowest point lies below a cone rising from the nearest ground point,
 ``h <= rise + slope * d``, both on the group's rim and inside it, and the group is
-broad enough not to be a car or a shrub.
+broad enough not to be a car or a shrub. A steeper group (under a cone of slope 1.5)
+is terrain too where a tenth of its rim cells lie within 1 m of the ground beside
+them: a slope or an embankment runs into the ground at its foot and its top, while a
+roof stands over the ground all round, however near the ground is.
 
 The cells are sized to the point density (about 1.5 point spacings), so that a
 hill in sparse data is one group and not hundreds of single cells.
@@ -37,6 +40,10 @@ def smooth_hills(
     slope: float = 1.0,
     min_share: float = 0.95,
     min_area: float = 100.0,
+    steep_slope: float = 1.5,
+    steep_share: float = 0.9,
+    foot: float = 1.0,
+    foot_share: float = 0.1,
 ) -> NDArray[np.bool_]:
     """Points that are the lowest of their cell in a group of object cells that is a hill.
 
@@ -48,6 +55,10 @@ def smooth_hills(
     rise, slope : the cone over the nearest ground point under which a hill's cells lie (m, rise/run).
     min_share : least share of a group's cells, and of its rim cells, under the cone.
     min_area : least area (m²) of a hill.
+    steep_slope, steep_share : a steeper cone, and the share of cells under it, for a group that
+        meets the ground at its foot.
+    foot, foot_share : a group meets the ground where at least ``foot_share`` of its rim cells lie
+        at most ``foot`` m above the nearest ground.
     """
     grid = Grid.covering(xyz[:, :2], cell)
     cells = CellSort.of(grid, xyz)
@@ -61,13 +72,23 @@ def smooth_hills(
     near = lowest_ground[ri, ci]
     own = np.where(objects, lowest, near)
     d = np.hypot(xyz[own, 0] - xyz[near, 0], xyz[own, 1] - xyz[near, 1])
-    under = objects & (xyz[own, 2] - xyz[near, 2] <= rise + slope * d)
+    h = xyz[own, 2] - xyz[near, 2]
     labels, n = ndimage.label(objects, structure=np.ones((3, 3)))
     rim = objects & ndimage.binary_dilation(has_ground, structure=np.ones((3, 3)))
-    count, rims = (np.bincount(labels.ravel(), m.ravel(), minlength=n + 1) for m in (objects, rim))
-    ok = np.bincount(labels.ravel(), under.ravel(), minlength=n + 1) >= min_share * count
-    ok &= np.bincount(labels.ravel(), (under & rim).ravel(), minlength=n + 1) >= min_share * rims
-    ok &= count * cell * cell >= min_area
+
+    def per_group(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
+        return np.bincount(labels.ravel(), mask.ravel(), minlength=n + 1).astype(np.float64)
+
+    count, rims = per_group(objects), per_group(rim)
+
+    def under(cone: float, share: float) -> NDArray[np.bool_]:
+        below = objects & (h <= rise + cone * d)
+        return (per_group(below) >= share * count) & (per_group(below & rim) >= share * rims)
+
+    # A steeper group is still terrain where part of its rim runs into the ground (the foot or
+    # the top of a slope); a roof stands over the ground all round, however near it is.
+    meets = per_group(rim & (h <= foot)) >= foot_share * rims
+    ok = (under(slope, min_share) | (under(steep_slope, steep_share) & meets)) & (count * cell * cell >= min_area)
     ok[0] = False
     out[lowest[ok[labels] & objects]] = True
     return out
