@@ -110,7 +110,7 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
     # Once the passes settle, each stage may hand them more ground, once: steep-sided ridges,
     # dikes and embankment crests (long, narrow, low groups of object cells), then hills
     # (groups that rise smoothly out of the ground).
-    stages = ["earthworks", "hills"]
+    stages_run = 0
     passes = p.refinements + 1
     while True:
         passes -= 1
@@ -123,16 +123,17 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
         current = cells.lowest(is_ground)
         if np.count_nonzero(before != is_ground) >= p.settled * len(pts) and passes > 0:
             continue
-        more = None
-        while stages and more is None:
-            if stages.pop(0) == "earthworks":
-                found = _earthworks(grid, surface, zmin, idx, current, p)
-            else:
-                found = _hills(grid, pts, is_ground, p)
-            more = found if found.any() else None
-        if more is None:
+        found = np.zeros(grid.shape, bool)
+        while stages_run < 2 and not found.any():
+            found = (
+                _earthworks(grid, surface, zmin, idx, current, p)
+                if stages_run == 0
+                else _hills(grid, pts, is_ground, p)
+            )
+            stages_run += 1
+        if not found.any():
             break
-        current = np.where(more, idx, current)
+        current = np.where(found, idx, current)
         passes = p.stage_passes
     is_ground |= _walls(grid, pts, h, is_ground, p)
     ground[keep[is_ground]] = True
