@@ -9,7 +9,7 @@ right where it lies within 2 m (one tile) of a true change.
 The speed of a diff and of a ditch query over 1 km² is measured on one 1 km scene
 and its re-survey after four rounds of changes (4 M points per survey), over its
 whole extent.
-    python -m benchmarks.changes_synth [--seeds 1,2,3] [--size 300] [--density 4] [--km2-dir DIR]
+    python -m benchmarks.changes_synth [--seeds 1,2,...,10] [--size 300] [--density 4] [--km2-dir DIR]
 """
 
 from __future__ import annotations

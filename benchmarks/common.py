@@ -58,7 +58,7 @@ def synthetic_runs(
     import tempfile
 
     parser = argparse.ArgumentParser(description=description)
-    parser.add_argument("--seeds", default="1,2,3")
+    parser.add_argument("--seeds", default="1,2,3,4,5,6,7,8,9,10")
     parser.add_argument("--size", type=float, default=300)
     parser.add_argument("--density", type=float, default=4)
     if extra:

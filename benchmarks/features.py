@@ -1,11 +1,14 @@
-"""Ditch and ridge queries against synthetic truth: recall and precision by length.
+"""Ditch, ridge, wall, mound and pit queries against synthetic truth.
 
-A true line counts as found where a reported line lies within 2 m of it; a reported
-line is right where a true line of that kind lies within 2 m. Walls (1–1.6 m wide,
+Lines by length: a true line counts as found where a reported line lies within 2 m
+of it; a reported line is right where a true line of that kind lies within 2 m.
+Mounds and pits by count: a true one at least 0.5 m high (deep) is found where a
+reported polygon lies within 2 m of its centre; a reported polygon is right where it
+lies within 2 m of the footprint of a true one of any size. Walls (1–1.6 m wide,
 1–1.8 m high) and ridges (3–6 m wide) make the same tiles; the ridge and wall filters
 part them by their shoulders (queries/shoulder.py). ``precision_forms`` counts a
 reported ridge or wall right near either.
-    python -m benchmarks.features [--seeds 1,2,3] [--size 300] [--density 4]
+    python -m benchmarks.features [--seeds 1,2,...,10] [--size 300] [--density 4]
 """
 
 from __future__ import annotations
@@ -56,6 +59,21 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
             "found_m": float(sum(g.length for g in found)),
             "query_s": time.perf_counter() - t0,
         }
+    for kind in ("mound", "pit"):
+        t0 = time.perf_counter()
+        found = [m.geometry for m in find(db, "v", kind)]
+        seconds = time.perf_counter() - t0
+        centres = [f.geometry for f in scene.features if f.kind == kind and f.size >= 0.5]
+        footprints = [f.geometry.buffer(f.width / 2) for f in scene.features if f.kind == kind]
+        hits = shapely.union_all(found) if found else shapely.GeometryCollection()
+        anywhere = shapely.union_all(footprints) if footprints else shapely.GeometryCollection()
+        out[kind] = {
+            "recall": sum(hits.distance(c) <= TOL for c in centres) / len(centres) if centres else float("nan"),
+            "precision": sum(g.distance(anywhere) <= TOL for g in found) / len(found) if found else float("nan"),
+            "true": len(centres),
+            "found": len(found),
+            "query_s": seconds,
+        }
     return out
 
 
@@ -65,6 +83,8 @@ def main() -> None:
         k: {m: float(np.mean([runs[s][k][m] for s in runs])) for m in ("recall", "precision", "precision_forms")}
         for k in ("ditch", "ridge", "wall")
     }
+    for k in ("mound", "pit"):
+        summary[k] = {m: float(np.mean([runs[s][k][m] for s in runs])) for m in ("recall", "precision")}
     print(summary)
     print(save("features", {"runs": runs, "mean": summary, **settings}))
 

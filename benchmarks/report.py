@@ -191,7 +191,9 @@ def features_section(out: list[str]) -> None:
         "Target recall and precision ≥ 0.9 by length. Recall counts ditches ≥ 0.5 m deep and ≥ 1.5 m wide, "
         "ridges and walls. Precision is given two ways: against that same truth, and against every true ditch "
         "(shallower and narrower ones are real ditches too) or every ridge and wall (the ridge and wall "
-        "filters part one form by its shoulder); see `benchmarks/features.py`.",
+        "filters part one form by its shoulder); see `benchmarks/features.py`. Mounds and pits are counted, "
+        "not measured by length: a true one at least 0.5 m high (deep) is found where a match lies within 2 m "
+        "of its centre, and a match is right within 2 m of any true one's footprint (no target in the issue).",
         "",
     ]
 

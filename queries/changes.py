@@ -40,6 +40,9 @@ RULES = (  # (filter, sign of dz, kind when the filter matches in the later vers
     ("pit", -1, "pit appeared", "pit removed"),
     ("mound", +1, "mound appeared", "mound removed"),
 )
+# Levels each rule's filter runs at besides its own. A mound or pit a few metres across holds no
+# extreme point at 2 m where its top is flat (a ground filter cuts steep tops); at 4 m it does.
+EXTRA_LEVELS = {"pit": (4,), "mound": (4,)}
 
 
 def level_of_detection(db: Database, a: str, b: str) -> float:
@@ -304,7 +307,8 @@ def _matched(
     members = np.concatenate(regions)
     owner = np.repeat(np.arange(len(regions)), [len(r) for r in regions])
     out: list[dict[str, float]] = [{} for _ in regions]
-    for lv in sorted({filters[name].level for name, *_ in RULES}):
+    runs = {(name, lv) for name, *_ in RULES for lv in (filters[name].level, *EXTRA_LEVELS.get(name, ()))}
+    for lv in sorted({lv for _, lv in runs}):
         cx, cy = np.unique(np.column_stack([xg[members] // lv, yg[members] // lv]), axis=0).T
         ring = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)])
         nx, ny = (cx[:, None] + ring[:, 0]).ravel(), (cy[:, None] + ring[:, 1]).ravel()
@@ -331,15 +335,15 @@ def _matched(
         region_owner = np.repeat(owner, (level // fine) ** 2)
         for name, *_ in RULES:
             flt = filters[name]
-            if flt.level != lv:
+            if (name, lv) not in runs:
                 continue
             found = match_tiles(txg, tyg, code, lat, flt, level=lv, shapes=False)
             tiles = np.concatenate([m.tiles for m in found]) if found else np.zeros(0, np.intp)
             mx, my = _split(txg[tiles] // lv, tyg[tiles] // lv, lv // fine)
             inside = np.isin(tile_key(rx, ry), tile_key(mx, my))
             area = np.bincount(region_owner[inside], minlength=len(regions)) * float(fine * fine)
-            for k in range(len(regions)):
-                out[k][name] = float(area[k])
+            for k in range(len(regions)):  # the level that matches most of the region counts
+                out[k][name] = max(out[k].get(name, 0.0), float(area[k]))
     return out
 
 

@@ -70,6 +70,7 @@ class Filter:
     min_elongation: float = 0.0
     min_shoulder: float | None = None  # queries.shoulder: a ridge's flanks stand, a wall's do not
     max_shoulder: float | None = None
+    around: bool = False  # queries.relief: the extreme stands out all round (mound, pit), not across a line
 
 
 @cache
@@ -119,6 +120,7 @@ def parse_filter(doc: dict[str, Any]) -> Filter:
         float(doc.get("min_elongation", 0.0)),
         doc.get("min_shoulder"),
         doc.get("max_shoulder"),
+        bool(doc.get("around", False)),
     )
 
 

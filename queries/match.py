@@ -75,16 +75,26 @@ def match_tiles(
     if len(cand) == 0:
         return []
     ex, ey, relief = tile_relief(
-        lattice, xg[cand], yg[cand], measure=flt.measure, reach=REACH_TILES * lv, along=BREAK_LINES[code[cand]]
+        lattice,
+        xg[cand],
+        yg[cand],
+        measure=flt.measure,
+        reach=REACH_TILES * lv,
+        along=None if flt.around else BREAK_LINES[code[cand]],
+        around=flt.around,
     )
     with np.errstate(invalid="ignore"):
-        ok = ~(relief < TILE_SHARE * flt.min_measure)  # NaN (terrain beside unknown) is kept
+        # NaN (terrain beside unknown) is kept, but a closed form must be seen all round
+        ok = relief >= TILE_SHARE * flt.min_measure if flt.around else ~(relief < TILE_SHARE * flt.min_measure)
     keep, relief, ex, ey = cand[ok], relief[ok], ex[ok], ey[ok]
     xg, yg, code = xg[keep], yg[keep], code[keep]
     groups = components(xg, yg, code, flt, lv)
     found: list[tuple[NDArray[np.intp], float]] = []
     for g in groups:
-        measure = float(np.nanmedian(relief[g])) if np.isfinite(relief[g]).any() else float("nan")
+        if not np.isfinite(relief[g]).any():
+            measure = float("nan")
+        else:  # a closed form stands out most at its top (bottom); a line is measured along it
+            measure = float(np.nanmax(relief[g]) if flt.around else np.nanmedian(relief[g]))
         if measure < flt.min_measure:  # NaN (no relief measured) is kept
             continue
         if flt.linear and elongation(ex[g], ey[g], level=lv) < flt.min_elongation:

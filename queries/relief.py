@@ -17,8 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ingest.tiles import tile_key
+
 SUBGRID = 5  # nodes per tile side (must match ingest.pyramid.SUBGRID)
 _COS45 = float(np.sqrt(0.5))
+RING_SHARE = 0.35  # ring_relief: a closed form's least relief over the ring, as a share of its most
 _DIRS = np.array([[1.0, 0.0], [0.0, 1.0], [np.sqrt(0.5), np.sqrt(0.5)], [np.sqrt(0.5), -np.sqrt(0.5)]])
 
 
@@ -150,6 +153,92 @@ def two_sided_relief(
     return best
 
 
+def ring_relief(
+    lattice: NodeLattice,
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    z: NDArray[np.float64],
+    *,
+    measure: str,
+    tiles: int,
+) -> NDArray[np.float64]:
+    """How far heights ``z`` of tiles (xg, yg) stand above (below, ``measure="depth"``) the highest
+    (lowest) stored node of every tile in the ring ``tiles`` tiles away (NaN where any is unknown).
+
+    A closed form stands out of all of it. A ridge or a ditch does not: the ring crosses its
+    line, and the tiles there keep its crest or bottom among their nodes, where the corners
+    alone would miss a narrow one. Nodes 0.5 m apart can still miss a narrow crest by a third
+    of its height, so a tile counts (else 0) only where it stands out of every ring tile by
+    :data:`RING_SHARE` of what it stands out of the lowest: a dome's top does, with its flanks
+    well below it, and a line's crest does not.
+    """
+    sign = -1.0 if measure == "depth" else 1.0
+    ring = np.array([(di, dj) for di in range(-tiles, tiles + 1) for dj in range(-tiles, tiles + 1)])
+    ring = ring[np.abs(ring).max(axis=1) == tiles]
+    extreme = ring_extremes(lattice, np.asarray(xg), np.asarray(yg), ring, sign=sign)
+    with np.errstate(invalid="ignore"):
+        rel = sign * (np.asarray(z, np.float64)[:, None] - extreme)
+        out = np.where(np.isnan(rel).any(axis=1), np.nan, rel.min(axis=1))  # unknown terrain: NaN
+        out = np.where(~(out < RING_SHARE * rel.max(axis=1)), out, 0.0)
+    return out
+
+
+def ring_extremes(
+    lattice: NodeLattice,
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    ring: NDArray[np.int64],
+    *,
+    sign: float,
+    whole: bool | None = None,
+) -> NDArray[np.float64]:
+    """(T, len(ring)) highest (``sign`` −1: lowest) stored node of the tiles at offsets ``ring``
+    (in tiles) from tiles (xg, yg); NaN where a tile has none.
+
+    With ``whole`` the extremes of every tile of the lattice are taken first (one pass over it:
+    a query over a whole area), otherwise those of the ring tiles alone (a few regions in a large
+    lattice, as change typing has). By default, whichever reads fewer nodes.
+    """
+    step = SUBGRID - 1
+    size = round(lattice.spacing * step)
+    rows, cols = lattice.z.shape
+    if whole is None:
+        whole = len(xg) * len(ring) > (rows // step + 1) * (cols // step + 1)
+    if not whole:
+        rx = (xg[:, None] + ring[:, 0] * size).ravel()
+        ry = (yg[:, None] + ring[:, 1] * size).ravel()
+        _, first, inverse = np.unique(tile_key(rx // size, ry // size), return_index=True, return_inverse=True)
+        nodes = lattice.tile_nodes(rx[first], ry[first]).reshape(len(first), -1)
+        best = np.where(np.isnan(nodes), -np.inf, sign * nodes).max(axis=1)
+        best[np.isneginf(best)] = np.nan
+        return (sign * best)[inverse].reshape(len(xg), len(ring))
+    extremes, i0, j0 = _tile_extremes(lattice, sign)
+    ti = np.rint(xg / lattice.spacing).astype(np.int64)[:, None] // step - i0 + ring[:, 0]
+    tj = np.rint(yg / lattice.spacing).astype(np.int64)[:, None] // step - j0 + ring[:, 1]
+    r, c = extremes.shape
+    inside = (ti >= 0) & (tj >= 0) & (ti < c) & (tj < r)
+    return np.where(inside, extremes[np.where(inside, tj, 0), np.where(inside, ti, 0)], np.nan)
+
+
+def _tile_extremes(lattice: NodeLattice, sign: float) -> tuple[NDArray[np.float64], int, int]:
+    """Highest (``sign`` −1: lowest) stored node of every tile the lattice touches, NaN where none,
+    and the tile index of the grid's first row and column."""
+    step = SUBGRID - 1
+    if lattice.z.size == 0:
+        return np.full((0, 0), np.nan), 0, 0
+    # Pad with no-data so that the grid starts and ends on tile corners, one tile wider each way:
+    # a tile whose edge nodes alone lie on the lattice has those as its extremes.
+    left, below = lattice.i0 % step + step, lattice.j0 % step + step
+    rows, cols = lattice.z.shape
+    right = (-(left + cols - 1)) % step + step
+    above = (-(below + rows - 1)) % step + step
+    z = np.pad(sign * lattice.z, ((below, above), (left, right)), constant_values=np.nan)
+    win = np.lib.stride_tricks.sliding_window_view(np.where(np.isnan(z), -np.inf, z), (SUBGRID, SUBGRID))
+    best = win[::step, ::step].max(axis=(2, 3))
+    best[np.isneginf(best)] = np.nan
+    return sign * best, (lattice.i0 - left) // step, (lattice.j0 - below) // step
+
+
 def tile_relief(
     lattice: NodeLattice,
     xg: NDArray[np.int64],
@@ -158,13 +247,20 @@ def tile_relief(
     measure: str,
     reach: float,
     along: NDArray[np.float64] | None = None,
+    around: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Each tile's extreme node (x, y) and its two-sided relief.
 
     Two nodes compete: the plain extreme and the extreme against the tile's corner
     surface. The first misses a ditch crossing a sloping tile, the second one running
-    through the tile's corners; the tile keeps whichever stands out more.
+    through the tile's corners; the tile keeps whichever stands out more. With
+    ``around`` (a closed form: mound, pit) the plain extreme against the ring of tiles
+    ``reach`` metres away (:func:`ring_relief`).
     """
+    if around:
+        x, y, z = extreme_nodes(lattice, xg, yg, measure=measure)
+        ring = max(1, round(reach / (lattice.spacing * (SUBGRID - 1))))
+        return x, y, ring_relief(lattice, xg, yg, z, measure=measure, tiles=ring)
     best: tuple[NDArray[np.float64], ...] | None = None
     for detrend in (False,) if measure == "step" else (False, True):
         x, y, z = extreme_nodes(lattice, xg, yg, measure=measure, detrend=detrend)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from ingest.ground.fill import fill_nearest
@@ -117,3 +118,67 @@ def deep_pits(
     rim = fill_nearest(np.where(pits, np.nan, zmin))
     row, col = grid.index(xyz[:, :2])
     return pits[row, col] & (xyz[:, 2] < rim[row, col] - depth)
+
+
+def ground_spikes(
+    xyz: NDArray[np.float64],
+    ground: NDArray[np.bool_],
+    *,
+    k: int = 8,
+    base: float = 0.5,
+    slope: float = 1.0,
+    reach: float = 5.0,
+    cells: CellSort | None = None,
+) -> NDArray[np.bool_]:
+    """Mask of ground points that lie more than ``base`` below every other ground point of their
+    cell and the eight cells around, and below each of their ``k`` nearest ground neighbours
+    (within ``reach`` m) by more than ``base`` + ``slope`` × the distance to it: one-point pits.
+
+    :func:`low_outliers` needs a 3 m drop below its neighbours, all points counted, because a
+    ground point among tree or roof returns lies well below them; a lower bar there cost the
+    ISPRS samples' kappa. Among ground points alone, one point 1–3 m below all of its
+    neighbours is no terrain, and it would make a pit 1–2 m across in the dense model.
+
+    ``cells`` (default: 1 m cells) sorts the points by cell; the cell test picks the few
+    candidates, and only the ground points within ``reach`` of them go into a k-d tree.
+    """
+    xyz = np.asarray(xyz, float)
+    out = np.zeros(len(xyz), bool)
+    if np.count_nonzero(ground) <= k:
+        return out
+    cells = cells or CellSort.of(Grid.covering(xyz[:, :2], 1.0), xyz)
+    first = cells.lowest(ground)
+    has = first >= 0
+    z1 = np.where(has, xyz[first, 2], np.inf)
+    others = ground.copy()
+    others[first[has]] = False
+    second = cells.lowest(others)
+    z2 = np.where(second >= 0, xyz[second, 2], np.inf)
+    ring = np.ones((3, 3), bool)
+    ring[1, 1] = False
+    beside = ndimage.minimum_filter(z1, footprint=ring, mode="constant", cval=np.inf)
+    row, col = np.nonzero(has & (z1 < z2 - base) & (z1 < beside - base))
+    if len(row) == 0:
+        return out
+    cand = first[row, col]
+    # the ground points within reach of a candidate: its cell's window of whole cells
+    w = int(np.ceil(reach / cells.grid.cell))
+    d = np.arange(-w, w + 1)
+    rows, cols = cells.grid.shape
+    near = np.zeros(rows * cols, bool)
+    rr = np.clip(row[:, None, None] + d[None, :, None], 0, rows - 1)
+    cc = np.clip(col[:, None, None] + d[None, None, :], 0, cols - 1)
+    near[(rr * cols + cc).ravel()] = True
+    local = cells.order[near[cells.cell] & ground[cells.order]]
+    if len(local) <= k:
+        return out
+    local.sort()
+    dist, nb = cKDTree(xyz[local, :2]).query(xyz[cand, :2], k=k + 1)
+    nb = local[nb]
+    # the candidate itself is among them (at distance 0, maybe tied with a duplicate): skip it
+    own = nb == cand[:, None]
+    keep = np.argsort(own, axis=1, kind="stable")[:, :k]
+    nb, dist = np.take_along_axis(nb, keep, axis=1), np.take_along_axis(dist, keep, axis=1)
+    spike = (xyz[nb, 2] - xyz[cand, 2][:, None] > base + slope * dist).all(axis=1)
+    out[cand[spike]] = True
+    return out
