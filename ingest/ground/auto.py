@@ -34,7 +34,7 @@ from ingest.ground.fill import fill_linear
 from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of
 from ingest.ground.hills import point_spacing, smooth_hills
 from ingest.ground.morphology import progressive_opening
-from ingest.ground.outliers import low_outliers
+from ingest.ground.outliers import ground_spikes, low_outliers
 
 
 @dataclass(frozen=True)
@@ -136,6 +136,8 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
         current = np.where(found, idx, current)
         passes = p.stage_passes
     is_ground |= _walls(grid, pts, h, is_ground, p)
+    # One point 1-3 m under all the ground around it passed the 3 m outlier test; it is no terrain.
+    is_ground &= ~ground_spikes(pts, is_ground, cells=cells)
     ground[keep[is_ground]] = True
     return ground
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from ingest.ground.fill import fill_nearest
@@ -147,38 +146,47 @@ def ground_spikes(
     if np.count_nonzero(ground) <= k:
         return out
     cells = cells or CellSort.of(Grid.covering(xyz[:, :2], 1.0), xyz)
-    first = cells.lowest(ground)
-    has = first >= 0
-    z1 = np.where(has, xyz[first, 2], np.inf)
-    others = ground.copy()
-    others[first[has]] = False
-    second = cells.lowest(others)
-    z2 = np.where(second >= 0, xyz[second, 2], np.inf)
-    ring = np.ones((3, 3), bool)
-    ring[1, 1] = False
-    beside = ndimage.minimum_filter(z1, footprint=ring, mode="constant", cval=np.inf)
-    row, col = np.nonzero(has & (z1 < z2 - base) & (z1 < beside - base))
-    if len(row) == 0:
+    rows, cols = cells.grid.shape
+    # the ground points by cell, then height
+    on = ground[cells.order]
+    order, cell = cells.order[on], cells.cell[on]
+    z = xyz[order, 2]
+    head = np.flatnonzero(np.r_[True, cell[1:] != cell[:-1]])
+    low = np.full(rows * cols, np.inf)
+    low[cell[head]] = z[head]
+    nxt = np.minimum(head + 1, len(z) - 1)
+    second = np.where((head + 1 < len(z)) & (cell[nxt] == cell[head]), z[nxt], np.inf)
+    head = head[z[head] < second - base]
+    # of those, the ones under the lowest ground of each of the eight cells around
+    r, c = cell[head] // cols, cell[head] % cols
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            if not (dr or dc):
+                continue
+            rr, cc = r + dr, c + dc
+            inside = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
+            beside = np.where(inside, low[np.where(inside, rr * cols + cc, 0)], np.inf)
+            keep = z[head] < beside - base
+            head, r, c = head[keep], r[keep], c[keep]
+    if len(head) == 0:
         return out
-    cand = first[row, col]
+    cand = order[head]
     # the ground points within reach of a candidate: its cell's window of whole cells
     w = int(np.ceil(reach / cells.grid.cell))
     d = np.arange(-w, w + 1)
-    rows, cols = cells.grid.shape
     near = np.zeros(rows * cols, bool)
-    rr = np.clip(row[:, None, None] + d[None, :, None], 0, rows - 1)
-    cc = np.clip(col[:, None, None] + d[None, None, :], 0, cols - 1)
+    rr = np.clip(r[:, None, None] + d[None, :, None], 0, rows - 1)
+    cc = np.clip(c[:, None, None] + d[None, None, :], 0, cols - 1)
     near[(rr * cols + cc).ravel()] = True
-    local = cells.order[near[cells.cell] & ground[cells.order]]
+    local = np.sort(order[near[cell]])
     if len(local) <= k:
         return out
-    local.sort()
     dist, nb = cKDTree(xyz[local, :2]).query(xyz[cand, :2], k=k + 1)
     nb = local[nb]
     # the candidate itself is among them (at distance 0, maybe tied with a duplicate): skip it
     own = nb == cand[:, None]
-    keep = np.argsort(own, axis=1, kind="stable")[:, :k]
-    nb, dist = np.take_along_axis(nb, keep, axis=1), np.take_along_axis(dist, keep, axis=1)
+    keep_nb = np.argsort(own, axis=1, kind="stable")[:, :k]
+    nb, dist = np.take_along_axis(nb, keep_nb, axis=1), np.take_along_axis(dist, keep_nb, axis=1)
     spike = (xyz[nb, 2] - xyz[cand, 2][:, None] > base + slope * dist).all(axis=1)
     out[cand[spike]] = True
     return out
