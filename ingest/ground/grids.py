@@ -59,23 +59,32 @@ class Grid:
         fy = np.clip((xy[:, 1] - self.y0) / self.cell, 0, self.shape[0])
         j = np.minimum(fx.astype(np.intp), self.shape[1] - 1)
         i = np.minimum(fy.astype(np.intp), self.shape[0] - 1)
-        return CornerSampler(i * (self.shape[1] + 1) + j, self.shape[1] + 1, fx - j, fy - i)
+        sw = i * (self.shape[1] + 1) + j
+        nw = sw + self.shape[1] + 1
+        return CornerSampler(sw, sw + 1, nw, nw + 1, fx - j, fy - i)
 
 
 @dataclass(frozen=True)
 class CornerSampler:
-    """Precomputed bilinear weights: the points stay, the rasters change (one per refinement)."""
+    """Precomputed bilinear weights: the points stay, the rasters change (one per refinement).
 
-    base: NDArray[np.intp]  # flat index of each point's lower-left corner
-    stride: int
+    The four corner indices are kept rather than worked out from one per call: the sampler
+    runs twice per refinement pass over every point, and the additions were a third of it.
+    """
+
+    sw: NDArray[np.intp]  # flat index of each point's south-west corner
+    se: NDArray[np.intp]
+    nw: NDArray[np.intp]
+    ne: NDArray[np.intp]
     tx: NDArray[np.float64]
     ty: NDArray[np.float64]
 
     def __call__(self, raster: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
         r = raster.ravel()
-        b = self.base
-        south = r[b] + self.tx * (r[b + 1] - r[b])
-        north = r[b + self.stride] + self.tx * (r[b + self.stride + 1] - r[b + self.stride])
+        south = r[self.sw]
+        south = south + self.tx * (r[self.se] - south)
+        north = r[self.nw]
+        north = north + self.tx * (r[self.ne] - north)
         return south + self.ty * (north - south)
 
 

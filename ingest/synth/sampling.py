@@ -26,6 +26,7 @@ MIN_DENSITY, MAX_DENSITY = 0.05, 50.0
 NOISE_SIGMA = 0.03
 LOW_NOISE_SHARE = 2e-4
 GROUND_BELOW_CROWN = 0.6  # chance that a pulse into a crown also returns from the ground
+VEGETATION_CLEARANCE = 0.1  # m: the lowest vegetation return over the ground
 
 
 def blocks(scene: Scene) -> Iterator[tuple[int, int, tuple[float, float, float, float]]]:
@@ -87,15 +88,15 @@ def sample_block(
         second = rng.random(k) < 0.4
         ground = rng.random(k) < GROUND_BELOW_CROWN
         nret = 1 + second + ground
-        emit(idx, top - depth1, VEGETATION, 1, nret)
+        # A crown's returns stay above the ground under it: near a crown's rim the first return's
+        # depth into the crown and the second's below it could reach under the terrain, and the
+        # filters then took those points for pits in the ground.
+        first = np.maximum(top - depth1, zg[idx] + VEGETATION_CLEARANCE)
+        emit(idx, first, VEGETATION, 1, nret)
         s_idx = idx[second]
-        emit(
-            s_idx,
-            (top - depth1)[second] - rng.uniform(1, 5, len(s_idx)).clip(max=(top - zg[idx])[second] - 0.5),
-            VEGETATION,
-            2,
-            nret[second],
-        )
+        drop = rng.uniform(1, 5, len(s_idx))  # into the crown, and not closer than 0.5 m to the ground
+        below = first[second] - np.minimum(drop, first[second] - zg[s_idx] - 0.5)
+        emit(s_idx, np.maximum(below, zg[s_idx] + VEGETATION_CLEARANCE), VEGETATION, 2, nret[second])
         g_idx = idx[ground]
         emit(g_idx, zg[g_idx], GROUND, nret[ground], nret[ground])
     emit(free, zg[free], GROUND, 1, 1)
