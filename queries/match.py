@@ -80,7 +80,7 @@ def match_tiles(
         yg[cand],
         measure=flt.measure,
         reach=REACH_TILES * lv,
-        along=None if flt.around else BREAK_LINES[code[cand]],
+        along=BREAK_LINES[code[cand]],
         around=flt.around,
     )
     with np.errstate(invalid="ignore"):

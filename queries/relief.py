@@ -209,9 +209,7 @@ def ring_extremes(
         ry = (yg[:, None] + ring[:, 1] * size).ravel()
         _, first, inverse = np.unique(tile_key(rx // size, ry // size), return_index=True, return_inverse=True)
         nodes = lattice.tile_nodes(rx[first], ry[first]).reshape(len(first), -1)
-        best = np.where(np.isnan(nodes), -np.inf, sign * nodes).max(axis=1)
-        best[np.isneginf(best)] = np.nan
-        return (sign * best)[inverse].reshape(len(xg), len(ring))
+        return _extreme(nodes, sign, axis=1)[inverse].reshape(len(xg), len(ring))
     extremes, i0, j0 = _tile_extremes(lattice, sign)
     ti = np.rint(xg / lattice.spacing).astype(np.int64)[:, None] // step - i0 + ring[:, 0]
     tj = np.rint(yg / lattice.spacing).astype(np.int64)[:, None] // step - j0 + ring[:, 1]
@@ -232,11 +230,16 @@ def _tile_extremes(lattice: NodeLattice, sign: float) -> tuple[NDArray[np.float6
     rows, cols = lattice.z.shape
     right = (-(left + cols - 1)) % step + step
     above = (-(below + rows - 1)) % step + step
-    z = np.pad(sign * lattice.z, ((below, above), (left, right)), constant_values=np.nan)
-    win = np.lib.stride_tricks.sliding_window_view(np.where(np.isnan(z), -np.inf, z), (SUBGRID, SUBGRID))
-    best = win[::step, ::step].max(axis=(2, 3))
+    z = np.pad(lattice.z, ((below, above), (left, right)), constant_values=np.nan)
+    win = np.lib.stride_tricks.sliding_window_view(z, (SUBGRID, SUBGRID))[::step, ::step]
+    return _extreme(win, sign, axis=(2, 3)), (lattice.i0 - left) // step, (lattice.j0 - below) // step
+
+
+def _extreme(values: NDArray[np.float64], sign: float, *, axis: int | tuple[int, ...]) -> NDArray[np.float64]:
+    """Largest (``sign`` −1: smallest) of ``values`` along ``axis``, NaN ignored; NaN where all are."""
+    best = np.where(np.isnan(values), -np.inf, sign * values).max(axis=axis)
     best[np.isneginf(best)] = np.nan
-    return sign * best, (lattice.i0 - left) // step, (lattice.j0 - below) // step
+    return sign * best
 
 
 def tile_relief(
