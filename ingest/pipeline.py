@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import datetime as dt
 import os
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -14,6 +15,7 @@ from ingest.ground import classify_ground
 from ingest.noise import ground_noise
 from ingest.pyramid import SUBGRID, TerrainModel, build
 from ingest.readers import read
+from tdb.classes import NOISE, excluded, parse_classes
 from tdb.cloud import PointCloud
 from tdb.database import Database, Version
 from tdb.options import GroundMethod, parse
@@ -47,12 +49,14 @@ def survey(
     resolution: float = DEFAULT_RESOLUTION,
     flat_threshold: float | None = None,
     assume_metres: bool = False,
+    exclude: Iterable[int] = NOISE,
     stage: Any = None,
 ) -> Survey:
     """Derive the terrain model of one cloud (pure: nothing is written).
 
     ``stage(name)`` is called as each step starts (for progress display), and during the
     ground filter with ``"ground filter (k/n tiles)"`` as Sohn–Dowman's tiles finish.
+    Points of the ``exclude`` classes (default ASPRS noise) are never ground.
     """
     report = stage or (lambda _name: None)
     report("units")
@@ -63,7 +67,7 @@ def survey(
         if total > 1:
             report(f"ground filter ({done}/{total} tiles)")
 
-    ground = classify_ground(metric, method=parse(GroundMethod, method), progress=tiles)
+    ground = classify_ground(metric, method=parse(GroundMethod, method), progress=tiles, exclude=exclude)
     report("dense model")
     gxyz = metric.xyz[ground]
     dtm = dense_model(gxyz, resolution=resolution, crs=metric.crs)
@@ -86,9 +90,13 @@ def ingest(
     replace: bool = False,
     crs: Any = None,
     assume_metres: bool = False,
+    exclude: str | Iterable[int] = NOISE,
     progress: bool = False,
 ) -> Version:
     """Ingest one survey into ``db`` as ``version``, in one transaction.
+
+    ``exclude``: class codes (or text like ``"7,18,65"``) of points that are never
+    ground; the default is ASPRS noise (:data:`tdb.classes.NOISE`).
 
     Raises
     ------
@@ -97,6 +105,7 @@ def ingest(
     """
     from tqdm import tqdm
 
+    exclude = parse_classes(exclude)
     if not replace and any(v.name == version for v in db.versions()):
         from tdb.errors import VersionExistsError
 
@@ -119,6 +128,7 @@ def ingest(
         resolution=resolution,
         flat_threshold=flat_threshold,
         assume_metres=assume_metres,
+        exclude=exclude,
         stage=stage,
     )
     stage("database")
@@ -127,6 +137,7 @@ def ingest(
         m.stats,
         ground_points=int(result.ground.sum()),
         points=len(cloud),
+        excluded_points=int(excluded(cloud.classification, exclude).sum()),
         noise_m=round(result.noise, 4),
         flat_threshold_m=round(result.flat_threshold, 3),
         bounds=list(result.dtm.bounds),
@@ -136,6 +147,7 @@ def ingest(
         "resolution": resolution,
         "subgrid": SUBGRID,
         "flat_threshold": result.flat_threshold,
+        "exclude_classes": list(exclude),
     }
     v = db.write_version(
         version,

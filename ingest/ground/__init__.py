@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -12,6 +12,7 @@ from ingest.ground.contour import ContourParams, active_contour
 from ingest.ground.outliers import deep_pits, low_outliers
 from ingest.ground.sohn import SohnParams, sohn_dowman
 from ingest.ground.tiling import available_cores, by_tiles
+from tdb.classes import NOISE, excluded
 from tdb.cloud import PointCloud, check_spread, from_arrays
 from tdb.options import GroundMethod, parse
 
@@ -23,6 +24,7 @@ def classify_ground(
     *,
     method: str | GroundMethod = "auto",
     progress: Callable[[int, int], None] | None = None,
+    exclude: Iterable[int] = NOISE,
 ) -> NDArray[np.bool_]:
     """Ground mask of a point cloud (coordinates in metres).
 
@@ -33,16 +35,30 @@ def classify_ground(
         ``contour`` (Elmqvist active contour). See :class:`GroundMethod`.
     progress : called with (tiles done, tiles) as Sohn–Dowman's tiles finish (the other
         filters run whole: once, with (1, 1), at the end).
+    exclude : class codes of points the filter never sees and never calls ground
+        (default ASPRS noise, 7 and 18; see :mod:`tdb.classes`). Arrays carry no classes.
 
     Raises
     ------
     DegenerateInputError
-        For fewer than three points, or points spanning no area.
+        For fewer than three points, or points spanning no area (once ``exclude`` is applied).
     """
     m = parse(GroundMethod, method)
     cloud = points if isinstance(points, PointCloud) else from_arrays(*np.asarray(points, float).T, validate=False)
-    check_spread(cloud)
-    xyz = cloud.xyz
+    drop = excluded(cloud.classification, exclude)
+    if not drop.any():
+        check_spread(cloud)
+        return _ground(cloud.xyz, m, progress)
+    use = np.flatnonzero(~drop)
+    check_spread(cloud.take(use))
+    ground = np.zeros(len(drop), bool)
+    ground[use] = _ground(cloud.xyz[use], m, progress)
+    return ground
+
+
+def _ground(
+    xyz: NDArray[np.float64], m: GroundMethod, progress: Callable[[int, int], None] | None
+) -> NDArray[np.bool_]:
     if m is GroundMethod.AUTO:
         ground = auto_ground(xyz)
         if progress:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import input_options
+from tdb.cli.options import exclude_option, input_options
 from tdb.options import GroundMethod
 
 
@@ -26,6 +26,7 @@ from tdb.options import GroundMethod
 @click.option("--resolution", type=float, default=0.5, show_default=True, help="DTM cell size (m).")
 @click.option("--assume-metres", is_flag=True, help="Accept a file with no CRS as metres.")
 @input_options
+@exclude_option
 def command(
     cloud: Path,
     method: str,
@@ -35,17 +36,20 @@ def command(
     assume_metres: bool,
     crs: str | None,
     labels: str,
+    exclude: tuple[int, ...],
 ) -> None:
     """Find the ground in a point cloud.
 
     Points keep their input order; the output carries classification 2 for
     ground and 1 for everything else, in the input's coordinates and CRS.
+    Points of the excluded classes (ASPRS noise by default) keep their own class.
 
     \b
     Examples:
       tdb ground survey.laz --out ground.laz --dtm dtm.tif
       tdb ground survey.laz --method sohn --out sohn.laz
       tdb ground samp11.txt --crs EPSG:32632 --dtm samp11.tif --resolution 1
+      tdb ground lidarhd.laz --exclude-classes 7,18,65 --out ground.laz
     """
     import numpy as np
     from tqdm import tqdm
@@ -63,10 +67,15 @@ def command(
             bar.total = total
             bar.update(done - bar.n)
 
-        ground = classify_ground(metric, method=method, progress=advance)
+        ground = classify_ground(metric, method=method, progress=advance, exclude=exclude)
     click.echo(f"{int(ground.sum()):,} of {len(raw):,} points are ground ({100 * ground.mean():.1f} %)")
     if out:
-        write_las(out, raw, classification=np.where(ground, 2, 1).astype(np.uint8))
+        from tdb.classes import excluded
+
+        labels_out = np.where(ground, 2, 1).astype(np.uint8)
+        kept = excluded(raw.classification, exclude)
+        labels_out[kept] = raw.classification[kept]
+        write_las(out, raw, classification=labels_out)
         click.echo(f"wrote {out}")
     if dtm:
         from tdb.geotiff import write_geotiff

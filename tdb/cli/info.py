@@ -74,3 +74,7 @@ def _database_info(path: Path, as_json: bool) -> None:
             f"    ground noise {s.get('noise_m')} m, flat threshold {s.get('flat_threshold_m')} m, "
             f"method {v.params.get('method')}"
         )
+        if "exclude_classes" in v.params:  # versions from before the option have no record
+            classes = ",".join(map(str, v.params["exclude_classes"])) or "none"
+            dropped = s.get("excluded_points", 0)
+            click.echo(f"    excluded classes {classes}: {dropped:,} of {s.get('points'):,} points")

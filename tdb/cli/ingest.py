@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import input_options
+from tdb.cli.options import exclude_option, input_options
 from tdb.options import GroundMethod
 
 
@@ -35,6 +35,7 @@ def _date(_ctx: click.Context, _param: click.Parameter, value: str | None) -> dt
 @click.option("--replace", is_flag=True, help="Replace an existing version of the same name.")
 @click.option("--assume-metres", is_flag=True, help="Accept a file with no CRS as metres.")
 @input_options
+@exclude_option
 def command(
     cloud: Path,
     db_path: Path,
@@ -47,6 +48,7 @@ def command(
     assume_metres: bool,
     crs: str | None,
     labels: str,
+    exclude: tuple[int, ...],
 ) -> None:
     """Build the terrain model of a survey and store it: ground filter, dense model,
     tile categories at 2/4/8/16 m, reduction, in one transaction.
@@ -57,6 +59,7 @@ def command(
     Examples:
       tdb ingest survey_2020.laz --db park.tdb --version 2020 --date 2020-04-02
       tdb ingest survey_2024.laz --db park.tdb --version 2024 --replace
+      tdb ingest lidarhd.laz --db ign.tdb --version 2023 --exclude-classes 7,18,65
     """
     import tdb
     from ingest.pipeline import ingest
@@ -73,6 +76,7 @@ def command(
             replace=replace,
             crs=crs,
             assume_metres=assume_metres,
+            exclude=exclude,
             progress=True,
         )
     s = v.stats

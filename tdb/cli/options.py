@@ -27,6 +27,29 @@ def input_options(func: F) -> F:
     return func
 
 
+def _classes(_ctx: click.Context, _param: click.Parameter, value: str) -> tuple[int, ...]:
+    from tdb.classes import parse_classes
+    from tdb.errors import OptionError
+
+    try:
+        return parse_classes(value)
+    except OptionError as exc:
+        raise click.BadParameter(str(exc)) from None
+
+
+def exclude_option(func: F) -> F:
+    """``--exclude-classes`` for commands that filter ground."""
+    return click.option(
+        "--exclude-classes",
+        "exclude",
+        default="7,18",
+        show_default=True,
+        callback=_classes,
+        help="Classes of points that are never ground (7,18: ASPRS noise; add 65 for IGN LiDAR HD artefacts); "
+        "'none' keeps all.",
+    )(func)
+
+
 def parse_bbox(
     _ctx: click.Context | None, _param: click.Parameter | None, value: str | None
 ) -> tuple[float, float, float, float] | None:
