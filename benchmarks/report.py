@@ -121,7 +121,9 @@ def reduction_section(out: list[str]) -> None:
         "threshold, and the worst-rebuilt nodes within a 9.8 % budget (docs/categories.md). "
         "pydelatin gets the same dense model "
         "and the same number of points; both rebuilt surfaces are compared with the dense model at every valid "
-        f"post (`python -m benchmarks.reduction`). Machine: {_machine(doc)}.",
+        f"post (`python -m benchmarks.reduction`). Machine: {_machine(doc)}. "
+        "Points of the ASPRS noise classes (7, 18) are excluded, as by default; the last row runs "
+        "append-bug.laz (IGN LiDAR HD) again with its artefact class 65 excluded as well.",
         "",
         "| file | dense posts | kept | removed % | tdb RMSE / max (m) | pydelatin RMSE / max (m) "
         "| flat threshold (m) |",

@@ -34,6 +34,11 @@ MIN_LOD = 0.10
 # change is at least STRONG × LoD: a 20 m² mound 1.9 m high is no noise.
 MIN_STRONG_TILES = 4
 STRONG = 3.0
+# Smaller regions, down to this many tiles, count where a mound or a pit came or went: the
+# closed-form filters see the form in one version and not the other, which noise does not make.
+MIN_CLOSED_TILES = 2
+CLOSED_DZ = 2.0  # × LoD: the least mean change of such a region
+CLOSED = ("pit", "mound")
 RULES = (  # (filter, sign of dz, kind when the filter matches in the later version / in the earlier one)
     ("ditch", -1, "ditch dug", "ditch filled"),
     ("ridge", +1, "ridge or wall built", "ridge or wall removed"),
@@ -139,9 +144,10 @@ class _Tiles:
 
 def _regions(
     xg: NDArray[np.int64], yg: NDArray[np.int64], dz: NDArray[np.float64], lod: float, level: int, min_tiles: int
-) -> list[tuple[NDArray[np.intp], float]]:
-    """Regions of the moved tiles ``xg``, ``yg`` (8-neighbours on the tile lattice) that count as
-    changes, each as its members and mean height change."""
+) -> list[tuple[NDArray[np.intp], float, bool]]:
+    """Regions of the moved tiles ``xg``, ``yg`` (8-neighbours on the tile lattice) whose mean
+    change passes the LoD: members, mean height change, and whether the region passes the size
+    gate by itself (small ones count only where a closed form came or went, see :func:`detect`)."""
     i = ((xg - xg.min()) // level).astype(np.intp)
     j = ((yg - yg.min()) // level).astype(np.intp)
     grid = np.zeros((j.max() + 1, i.max() + 1), bool)
@@ -153,7 +159,7 @@ def _regions(
     regions = []
     for region in range(n):
         members = by_label[bounds[region] : bounds[region + 1]]
-        if len(members) < min(min_tiles, MIN_STRONG_TILES):
+        if len(members) < MIN_CLOSED_TILES:
             continue
         d = dz[members]
         moved = np.abs(d) > lod
@@ -161,9 +167,8 @@ def _regions(
         # Noise moves nodes both ways and its mean stays inside the LoD; a real change is coherent.
         if abs(mean_dz) < lod:
             continue
-        if len(members) < min_tiles and abs(mean_dz) < STRONG * lod:
-            continue
-        regions.append((members, mean_dz))
+        big = len(members) >= min_tiles or (len(members) >= MIN_STRONG_TILES and abs(mean_dz) >= STRONG * lod)
+        regions.append((members, mean_dz, big))
     return regions
 
 
@@ -242,22 +247,30 @@ def detect(
     if not moved.any():
         return []
     first = tested[moved]
-    seeds = [first[m] for m, _ in _regions(xg[first], yg[first], dz[moved], lod, level, min_tiles)]
-    if not seeds:
+    candidates = _regions(xg[first], yg[first], dz[moved], lod, level, min_tiles)
+    # Small regions grow too; they are kept at the end only where a closed form came or went.
+    strong = [first[m] for m, _, big in candidates if big]
+    weak = [first[m] for m, d, big in candidates if not big and abs(d) >= CLOSED_DZ * lod]
+    if not strong and not weak:
         return []
-    grown, dz = _grow(tiles, valid, tested, dz, moved, np.concatenate(seeds), level)
+    grown, dz = _grow(tiles, valid, tested, dz, moved, np.concatenate(strong + weak), level)
+    from_strong = np.isin(grown, np.concatenate(strong)) if strong else np.zeros(len(grown), bool)
     xg, yg = xg[grown], yg[grown]
-    regions = []
-    for members, mean_dz in _regions(xg, yg, dz, lod, level, min_tiles):
-        x, y = xg[members], yg[members]
-        geom = shapely.coverage_union_all(shapely.box(x, y, x + level, y + level))  # tiles never overlap
-        regions.append((members, mean_dz, geom))
+    regions = [
+        (members, mean_dz, big and bool(from_strong[members].any()))
+        for members, mean_dz, big in _regions(xg, yg, dz, lod, level, min_tiles)
+        if big or abs(mean_dz) >= CLOSED_DZ * lod
+    ]
     if not regions:
         return []
     groups = [m for m, _, _ in regions]
     found = {name: _matched(db, name, xg, yg, groups, level, lattices[name]) for name in (before, after)}
     out = []
-    for (members, mean_dz, geom), was, now in zip(regions, found[before], found[after]):
+    for (members, mean_dz, sure), was, now in zip(regions, found[before], found[after]):
+        if not sure and not _closed_form_changed(was, now, mean_dz):
+            continue
+        x, y = xg[members], yg[members]
+        geom = shapely.coverage_union_all(shapely.box(x, y, x + level, y + level))  # tiles never overlap
         out.append(
             {
                 "type": "Feature",
@@ -273,6 +286,16 @@ def detect(
             }
         )
     return out
+
+
+def _closed_form_changed(before: dict[str, float], after: dict[str, float], mean_dz: float) -> bool:
+    """Whether a mound or a pit came or went, in the direction of the change (a mound gone or a
+    pit dug where the ground fell): the matched areas of the closed-form filters, per version."""
+    return any(
+        (after.get(name, 0.0) - before.get(name, 0.0)) * sign * np.sign(mean_dz) > 0
+        for name, sign, *_ in RULES
+        if name in CLOSED
+    )
 
 
 def _split(
