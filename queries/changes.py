@@ -23,6 +23,7 @@ from scipy import ndimage
 
 from ingest.ground.fill import fill_lines_stack
 from ingest.tiles import tile_key
+from queries.centreline import elongation
 from queries.filters import builtin_filters
 from queries.match import REACH_TILES, match_tiles
 from queries.relief import SUBGRID, NodeLattice, node_lattice
@@ -39,6 +40,7 @@ STRONG = 3.0
 MIN_CLOSED_TILES = 2
 CLOSED_DZ = 2.0  # × LoD: the least mean change of such a region
 CLOSED = ("pit", "mound")
+LINE_ELONGATION = 2.0  # a region less elongated than this is compact: no line's change
 RULES = (  # (filter, sign of dz, kind when the filter matches in the later version / in the earlier one)
     ("ditch", -1, "ditch dug", "ditch filled"),
     ("ridge", +1, "ridge or wall built", "ridge or wall removed"),
@@ -271,12 +273,13 @@ def detect(
             continue
         x, y = xg[members], yg[members]
         geom = shapely.coverage_union_all(shapely.box(x, y, x + level, y + level))  # tiles never overlap
+        compact = elongation(x.astype(float), y.astype(float), level=level) < LINE_ELONGATION
         out.append(
             {
                 "type": "Feature",
                 "geometry": shapely.geometry.mapping(geom),
                 "properties": {
-                    "kind": _kind(was, now, mean_dz),
+                    "kind": _kind(was, now, mean_dz, compact=compact),
                     "tiles": len(members),
                     "area": float(geom.area),
                     "dz": round(mean_dz, 3),
@@ -370,10 +373,17 @@ def _matched(
     return out
 
 
-def _kind(before: dict[str, float], after: dict[str, float], mean_dz: float) -> str:
-    """The rule whose filter gained (or lost) most matched area, in the direction of the height change."""
+def _kind(before: dict[str, float], after: dict[str, float], mean_dz: float, *, compact: bool = False) -> str:
+    """The rule whose filter gained (or lost) most matched area, in the direction of the height change.
+
+    In a ``compact`` region (not elongated) a mound or pit that came or went names it before any
+    line: a dome's crest makes ridge tiles too, while a line's change is a long region.
+    """
     best, best_gain = "raised" if mean_dz > 0 else "lowered", 0.0
-    for name, sign, appeared, gone in RULES:
+    rules: tuple[tuple[str, int, str, str], ...] = RULES
+    if compact and _closed_form_changed(before, after, mean_dz):
+        rules = tuple(r for r in RULES if r[0] in CLOSED)
+    for name, sign, appeared, gone in rules:
         gain = after.get(name, 0.0) - before.get(name, 0.0)
         if gain > best_gain and np.sign(mean_dz) == sign:
             best, best_gain = appeared, gain

@@ -21,6 +21,7 @@ from ingest.tiles import tile_key
 
 SUBGRID = 5  # nodes per tile side (must match ingest.pyramid.SUBGRID)
 _COS45 = float(np.sqrt(0.5))
+PLANAR = 0.5  # ring_relief: a ring is a plane where no tile strays from it by half the relief
 RING_SHARE = 0.35  # ring_relief: a closed form's least relief over the ring, as a share of its most
 _DIRS = np.array([[1.0, 0.0], [0.0, 1.0], [np.sqrt(0.5), np.sqrt(0.5)], [np.sqrt(0.5), -np.sqrt(0.5)]])
 
@@ -171,15 +172,40 @@ def ring_relief(
     of its height, so a tile counts (else 0) only where it stands out of every ring tile by
     :data:`RING_SHARE` of what it stands out of the lowest: a dome's top does, with its flanks
     well below it, and a line's crest does not.
+
+    On a slope the ring's uphill side can stand over a mound's top. Where the ring is a plane
+    (once that plane is taken off, no ring tile strays from the median by more than
+    :data:`PLANAR` of the relief left), the relief is read against that plane; elsewhere, as it
+    is. A line that ends near the tile, or a wide form's own flanks, bend the ring out of a
+    plane, and a plane fitted through a line's end would make the end stand out.
     """
     sign = -1.0 if measure == "depth" else 1.0
     ring = np.array([(di, dj) for di in range(-tiles, tiles + 1) for dj in range(-tiles, tiles + 1)])
     ring = ring[np.abs(ring).max(axis=1) == tiles]
     extreme = ring_extremes(lattice, np.asarray(xg), np.asarray(yg), ring, sign=sign)
+    # The terrain's own slope across the ring, robustly: along each axis, the median over the
+    # ring's opposite sides of the difference between facing tiles. A line through the tile
+    # crosses both sides alike; one that ends near it, or a neighbour, moves few of the pairs.
     with np.errstate(invalid="ignore"):
-        rel = sign * (np.asarray(z, np.float64)[:, None] - extreme)
-        out = np.where(np.isnan(rel).any(axis=1), np.nan, rel.min(axis=1))  # unknown terrain: NaN
-        out = np.where(~(out < RING_SHARE * rel.max(axis=1)), out, 0.0)
+        grads = []
+        for axis in (0, 1):
+            far = ring[:, axis] == tiles
+            other = ring[:, 1 - axis]
+            near = np.array([np.flatnonzero((ring[:, axis] == -tiles) & (other == o))[0] for o in other[far]])
+            grads.append(np.median(extreme[:, far] - extreme[:, near], axis=1) / (2 * tiles))
+        level = extreme - grads[0][:, None] * ring[:, 0] - grads[1][:, None] * ring[:, 1]
+        z = np.asarray(z, np.float64)[:, None]
+        raw, flat = _least_relief(sign * (z - extreme)), _least_relief(sign * (z - level))
+        known = ~np.isnan(level).any(axis=1)  # elsewhere both reliefs are NaN already
+        spread = np.full(len(level), np.inf)
+        spread[known] = np.abs(level[known] - np.median(level[known], axis=1)[:, None]).max(axis=1)
+        out = np.where(spread <= PLANAR * flat, flat, raw)
+    return out
+
+
+def _least_relief(rel: NDArray[np.float64]) -> NDArray[np.float64]:
+    out = np.where(np.isnan(rel).any(axis=1), np.nan, rel.min(axis=1))  # unknown terrain: NaN
+    return np.where(~(out < RING_SHARE * rel.max(axis=1)), out, 0.0)
     return out
 
 

@@ -15,7 +15,7 @@ import tdb
 from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
 from ingest.synth.scene import Feature
-from queries.changes import _may_move, _surface, detect, level_of_detection
+from queries.changes import _kind, _may_move, _surface, detect, level_of_detection
 from tdb.cli import main
 from tdb.cloud import from_arrays
 
@@ -157,3 +157,18 @@ def test_a_raised_platform_is_found_whole_though_its_inner_tiles_keep_their_cate
     assert region.intersection(top).area > 0.95 * top.area
     assert region.difference(top.buffer(4)).area == 0
     assert 0.8 < found[0]["properties"]["dz"] < 1.1
+
+
+@given(
+    mound=st.floats(4, 400),
+    ridge=st.floats(4, 400),
+    dz=st.floats(0.2, 3.0),
+)
+def test_a_compact_region_is_named_by_its_closed_form_before_any_line(mound, ridge, dz):
+    # A removed dome loses mound tiles and the ridge tiles of its crest, more of either.
+    was, now = {"mound": mound, "ridge": ridge}, {}
+    assert _kind(was, now, -dz, compact=True) == "mound removed"
+    assert _kind(was, now, -dz, compact=False) == ("mound removed" if mound > ridge else "ridge or wall removed")
+    # the closed form must go the way the ground went: a lowered region never had a mound built
+    assert _kind(now, was, -dz, compact=True) == "lowered"
+    assert _kind({}, {"pit": mound, "ditch": ridge}, -dz, compact=True) == "pit appeared"
