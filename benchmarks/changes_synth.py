@@ -22,7 +22,7 @@ import numpy as np
 import shapely
 
 import tdb
-from benchmarks.common import save, synthetic_runs
+from benchmarks.common import save_runs, synthetic_runs
 from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
 from queries.changes import detect
@@ -118,15 +118,17 @@ def main() -> None:
             path = km2_pair(workdir, density=float(settings["density"]))
         settings["km2"] = diff_seconds(path)
     print(settings["km2"])
-    typed = [t for r in runs.values() for t in r["typed"].values()]  # type: ignore[attr-defined]
-    summary = {
+    print(save_runs("changes_synth", runs, settings, _mean))
+
+
+def _mean(runs: dict[int, Any]) -> dict[str, float]:
+    typed = [t for r in runs.values() for t in r["typed"].values()]
+    return {
         "recall": float(np.mean([r["recall"] for r in runs.values()])),
         "precision": float(np.mean([r["precision"] for r in runs.values()])),
         "typed_right": sum(t["expected"] == t["got"] for t in typed),
         "changes": len(typed),
     }
-    print(summary)
-    print(save("changes_synth", {"runs": runs, "mean": summary, **settings}))
 
 
 if __name__ == "__main__":

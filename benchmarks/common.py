@@ -46,27 +46,48 @@ def save(name: str, doc: dict[str, Any]) -> Path:
     return path
 
 
+def save_runs(name: str, runs: dict[int, Any], settings: dict[str, Any], mean: Callable[[Any], Any]) -> Path:
+    """Save the runs of :func:`synthetic_runs` with ``mean(runs)``, and the hold-out seeds' apart."""
+    holdout = settings.pop("holdout_runs")
+    doc: dict[str, Any] = {"runs": runs, "mean": mean(runs), **settings}
+    if holdout:
+        doc["holdout"] = {"runs": holdout, "mean": mean(holdout)}
+    print(doc["mean"], doc.get("holdout", {}).get("mean"))
+    return save(name, doc)
+
+
 def synthetic_runs(
     description: str, evaluate: Any, *, extra: Callable[[Any], None] | None = None
 ) -> tuple[dict[int, Any], dict[str, Any]]:
     """Parse ``--seeds/--size/--density`` (and the options ``extra`` adds to the parser) and run
     ``evaluate(seed, size, density, workdir)`` per seed.
 
-    Returns the runs by seed and the settings to save beside them (with the extra options).
+    Returns the runs by seed and the settings to save beside them (with the extra options);
+    the runs of the ``--holdout`` seeds are under ``settings["holdout_runs"]``.
     """
     import argparse
     import tempfile
 
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--seeds", default="1,2,3,4,5,6,7,8,9,10")
+    parser.add_argument(
+        "--holdout",
+        default="11,12,13,14,15,16,17,18,19,20",
+        help="seeds no setting was chosen on, scored apart ('' to skip)",
+    )
     parser.add_argument("--size", type=float, default=300)
     parser.add_argument("--density", type=float, default=4)
     if extra:
         extra(parser)
     args = parser.parse_args()
-    runs = {}
+    runs, holdout = {}, {}
     with tempfile.TemporaryDirectory() as tmp:
         for seed in [int(s) for s in args.seeds.split(",")]:
             runs[seed] = evaluate(seed, args.size, args.density, Path(tmp))
             print(seed, runs[seed], flush=True)
-    return runs, {k: v for k, v in vars(args).items() if k != "seeds"}
+        for seed in [int(s) for s in args.holdout.split(",") if s.strip()]:
+            holdout[seed] = evaluate(seed, args.size, args.density, Path(tmp))
+            print("holdout", seed, holdout[seed], flush=True)
+    settings = {k: v for k, v in vars(args).items() if k not in ("seeds", "holdout")}
+    settings["holdout_runs"] = holdout
+    return runs, settings

@@ -15,12 +15,13 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import shapely
 
 import tdb
-from benchmarks.common import save, synthetic_runs
+from benchmarks.common import save_runs, synthetic_runs
 from ingest.pipeline import ingest
 from ingest.synth import make_scene, sample
 from queries.match import find
@@ -78,16 +79,19 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
     return out
 
 
-def main() -> None:
-    runs, settings = synthetic_runs(__doc__, evaluate)
+def _mean(runs: dict[int, Any]) -> dict[str, dict[str, float]]:
     summary = {
         k: {m: float(np.mean([runs[s][k][m] for s in runs])) for m in ("recall", "precision", "precision_forms")}
         for k in ("ditch", "ridge", "wall")
     }
     for k in ("mound", "pit"):
-        summary[k] = {m: float(np.mean([runs[s][k][m] for s in runs])) for m in ("recall", "precision")}
-    print(summary)
-    print(save("features", {"runs": runs, "mean": summary, **settings}))
+        summary[k] = {m: float(np.nanmean([runs[s][k][m] for s in runs])) for m in ("recall", "precision")}
+    return summary
+
+
+def main() -> None:
+    runs, settings = synthetic_runs(__doc__, evaluate)
+    print(save_runs("features", runs, settings, _mean))
 
 
 if __name__ == "__main__":

@@ -176,18 +176,18 @@ def features_section(out: list[str]) -> None:
             out.append(
                 f"| {seed} | {kind} | {r['recall']:.2f} | {r['precision']:.2f} | {forms} | {r['query_s']:.2f} |"
             )
-    mean = doc.get("mean", {})
-    if mean:
-        out.append(
-            "| mean | "
-            + " ".join(
-                f"{k}: {v['recall']:.2f} / {v['precision']:.2f}"
-                + (f" / {v['precision_forms']:.2f}" if "precision_forms" in v else "")
-                + ";"
-                for k, v in mean.items()
+    for label, mean in (("mean", doc.get("mean")), (_holdout_label(doc), doc.get("holdout", {}).get("mean"))):
+        if mean:
+            out.append(
+                f"| {label} | "
+                + " ".join(
+                    f"{k}: {v['recall']:.2f} / {v['precision']:.2f}"
+                    + (f" / {v['precision_forms']:.2f}" if "precision_forms" in v else "")
+                    + ";"
+                    for k, v in mean.items()
+                )
+                + " | | | | |"
             )
-            + " | | | | |"
-        )
     out += [
         "",
         "Target recall and precision ≥ 0.9 by length. Recall counts ditches ≥ 0.5 m deep and ≥ 1.5 m wide, "
@@ -198,6 +198,11 @@ def features_section(out: list[str]) -> None:
         "of its centre, and a match is right within 2 m of any true one's footprint (no target in the issue).",
         "",
     ]
+
+
+def _holdout_label(doc: dict[str, Any]) -> str:
+    seeds = sorted(int(k) for k in doc.get("holdout", {}).get("runs", {}))
+    return f"mean, seeds {seeds[0]}–{seeds[-1]} (no setting chosen on them)" if seeds else ""
 
 
 def epochs_section(out: list[str]) -> None:
@@ -245,6 +250,13 @@ def changes_section(out: list[str]) -> None:
         f"{m['changes']}. Target ≥ 0.9 each, every change typed right.",
         "",
     ]
+    h = doc.get("holdout", {}).get("mean")
+    if h:
+        out += [
+            f"On the {_holdout_label(doc).removeprefix('mean, ')}: recall {h['recall']:.2f}, precision "
+            f"{h['precision']:.2f}; typed right {h['typed_right']} of {h['changes']}.",
+            "",
+        ]
     if "km2" in doc:
         mo = doc["km2"]
         out += [
