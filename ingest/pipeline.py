@@ -15,7 +15,7 @@ from ingest.ground import classify_ground
 from ingest.noise import ground_noise
 from ingest.pyramid import SUBGRID, TerrainModel, build
 from ingest.readers import read
-from tdb.classes import NOISE, excluded, parse_classes
+from tdb.classes import NOISE, excluded, parse_classes, user_classes
 from tdb.cloud import PointCloud
 from tdb.database import Database, Version
 from tdb.options import GroundMethod, parse
@@ -138,6 +138,7 @@ def ingest(
         ground_points=int(result.ground.sum()),
         points=len(cloud),
         excluded_points=int(excluded(cloud.classification, exclude).sum()),
+        kept_user_classes=user_classes(cloud.classification, exclude),
         noise_m=round(result.noise, 4),
         flat_threshold_m=round(result.flat_threshold, 3),
         bounds=list(result.dtm.bounds),

@@ -48,3 +48,11 @@ def excluded(classification: NDArray[np.uint8], classes: Iterable[int]) -> NDArr
     if len(codes) == 0:
         return np.zeros(len(classification), bool)
     return np.isin(classification, codes)
+
+
+def user_classes(classification: NDArray[np.uint8], exclude: Iterable[int]) -> dict[str, int]:
+    """Points per class of the user range (64–255) that ``exclude`` keeps: a scheme the ASPRS
+    codes do not define, whose meaning only the producer knows (``{"65": 539}``)."""
+    codes, counts = np.unique(classification[classification >= 64], return_counts=True)
+    skip = set(exclude)
+    return {str(int(c)): int(n) for c, n in zip(codes, counts) if int(c) not in skip}

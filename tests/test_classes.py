@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from pyproj import CRS
 
 from ingest.ground import classify_ground
-from tdb.classes import NOISE, excluded, parse_classes
+from tdb.classes import NOISE, excluded, parse_classes, user_classes
 from tdb.cloud import from_arrays
 from tdb.errors import OptionError
 
@@ -59,3 +62,34 @@ def test_too_few_left(plane_cloud):
     every = np.unique(plane_cloud.classification).tolist()
     with pytest.raises(DegenerateInputError):
         classify_ground(plane_cloud, exclude=every)
+
+
+def test_user_range_classes_are_counted_unless_excluded():
+    cls = np.array([2, 65, 65, 66, 7, 200], np.uint8)
+    assert user_classes(cls, NOISE) == {"65": 2, "66": 1, "200": 1}
+    assert user_classes(cls, (7, 18, 65)) == {"66": 1, "200": 1}
+    assert user_classes(np.array([1, 2, 7], np.uint8), ()) == {}
+
+
+def test_ingest_names_unknown_classes_and_excludes_them_on_request(plane_cloud, tmp_path):
+    from click.testing import CliRunner
+
+    from ingest.readers import write_las
+    from tdb.cli import main
+
+    cls = plane_cloud.classification.copy()
+    cls[:50] = 65  # as IGN LiDAR HD marks its artefacts
+    src = tmp_path / "ign.laz"
+    write_las(src, replace(plane_cloud, crs=CRS.from_epsg(2154)), classification=cls)
+    runner = CliRunner()
+    db = str(tmp_path / "a.tdb")
+    r = runner.invoke(main, ["ingest", str(src), "--db", db, "--version", "v"])
+    assert r.exit_code == 0, r.output
+    assert "50 of class 65" in r.stderr
+    again = ["ingest", str(src), "--db", db, "--version", "v", "--replace", "--exclude-classes", "7,18,65"]
+    r = runner.invoke(main, again)
+    assert r.exit_code == 0 and "class 65" not in r.stderr
+    import tdb
+
+    stats = tdb.open(db).version("v").stats
+    assert stats["excluded_points"] == int(np.isin(cls, (7, 18, 65)).sum())

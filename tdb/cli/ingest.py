@@ -84,3 +84,11 @@ def command(
         f"version {v.name!r} in {db_path}: {s['tiles_2m']:,} tiles of 2 m, {s['kept_points']:,} points kept "
         f"of {s['dense_posts']:,} posts ({s['reduction_pct']} % removed, RMSE {s.get('rmse_m')} m)"
     )
+    user = s.get("kept_user_classes") or {}
+    if user:
+        found = ", ".join(f"{n:,} of class {c}" for c, n in user.items())
+        click.echo(
+            f"note: the file uses classes ASPRS leaves to producers ({found}); if they mark noise or "
+            "artefacts (IGN LiDAR HD: 65), ingest again with --exclude-classes 7,18,<codes> --replace",
+            err=True,
+        )
