@@ -161,7 +161,7 @@ def _regions(
     regions = []
     for region in range(n):
         members = by_label[bounds[region] : bounds[region + 1]]
-        if len(members) < MIN_CLOSED_TILES:
+        if len(members) < min(min_tiles, MIN_CLOSED_TILES):
             continue
         d = dz[members]
         moved = np.abs(d) > lod
