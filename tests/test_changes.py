@@ -172,3 +172,19 @@ def test_a_compact_region_is_named_by_its_closed_form_before_any_line(mound, rid
     # the closed form must go the way the ground went: a lowered region never had a mound built
     assert _kind(now, was, -dz, compact=True) == "lowered"
     assert _kind({}, {"pit": mound, "ditch": ridge}, -dz, compact=True) == "pit appeared"
+
+
+@given(
+    keys=st.lists(st.tuples(st.integers(-50, 50), st.integers(-50, 50)), max_size=60),
+    probe=st.lists(st.tuples(st.integers(-60, 60), st.integers(-60, 60)), max_size=60),
+    vast=st.booleans(),
+)
+def test_member_is_isin(keys, probe, vast):
+    from ingest.tiles import tile_key
+    from queries.changes import _member
+
+    sx, sy = (np.array([k[i] for k in keys], np.int64) for i in (0, 1))
+    kx, ky = (np.array([k[i] for k in probe], np.int64) for i in (0, 1))
+    want = np.isin(tile_key(kx, ky), tile_key(sx, sy)) if len(sx) else np.zeros(len(kx), bool)
+    got = _member(kx, ky, sx, sy, max_cells=1 if vast else 10**6)  # vast: the sorting fallback
+    np.testing.assert_array_equal(got, want)
