@@ -19,6 +19,7 @@ from ingest.ground.fill import fill_nearest
 from ingest.ground.tin import surface_height, triangulate
 from ingest.pipeline import survey
 from ingest.readers import read
+from tdb.classes import NOISE
 
 FILES = [
     ("las", f)
@@ -60,7 +61,7 @@ def main() -> None:
     for folder, name, classes in runs:
         path = DATA / folder / name
         t0 = time.perf_counter()
-        s = survey(read(path)) if classes is None else survey(read(path), exclude=classes)
+        s = survey(read(path), exclude=NOISE if classes is None else classes)
         if classes is not None:
             name = f"{name} (classes {','.join(map(str, classes))} excluded)"
         st = s.model.stats

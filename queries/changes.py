@@ -26,7 +26,7 @@ from ingest.tiles import tile_key
 from queries.centreline import elongation
 from queries.filters import builtin_filters
 from queries.match import REACH_TILES, match_tiles
-from queries.relief import SUBGRID, NodeLattice, node_lattice
+from queries.relief import SUBGRID, NodeLattice, nan_extreme, node_lattice
 from tdb.categories import NO_DATA
 from tdb.database import Database
 
@@ -80,8 +80,7 @@ def _lattice(db: Database, version: str, level: int, xg: NDArray[np.int64], yg: 
 
 def _ranges(n: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Lowest and highest stored node along the first axis (+inf and −inf where none)."""
-    # fmin and fmax skip NaN, and give NaN only where every node is unknown
-    lo, hi = np.fmin.reduce(n, axis=0), np.fmax.reduce(n, axis=0)
+    lo, hi = nan_extreme(n, -1.0, axis=0), nan_extreme(n, 1.0, axis=0)
     none = np.isnan(lo)
     return np.where(none, np.inf, lo), np.where(none, -np.inf, hi)
 

@@ -204,9 +204,9 @@ def ring_relief(
 
 
 def _least_relief(rel: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Least of each row of reliefs against the ring tiles; 0 under :data:`RING_SHARE` of the most."""
     out = np.where(np.isnan(rel).any(axis=1), np.nan, rel.min(axis=1))  # unknown terrain: NaN
     return np.where(~(out < RING_SHARE * rel.max(axis=1)), out, 0.0)
-    return out
 
 
 def ring_extremes(
@@ -235,7 +235,7 @@ def ring_extremes(
         ry = (yg[:, None] + ring[:, 1] * size).ravel()
         _, first, inverse = np.unique(tile_key(rx // size, ry // size), return_index=True, return_inverse=True)
         nodes = lattice.tile_nodes(rx[first], ry[first]).reshape(len(first), -1)
-        return _extreme(nodes, sign, axis=1)[inverse].reshape(len(xg), len(ring))
+        return nan_extreme(nodes, sign, axis=1)[inverse].reshape(len(xg), len(ring))
     extremes, i0, j0 = _tile_extremes(lattice, sign)
     ti = np.rint(xg / lattice.spacing).astype(np.int64)[:, None] // step - i0 + ring[:, 0]
     tj = np.rint(yg / lattice.spacing).astype(np.int64)[:, None] // step - j0 + ring[:, 1]
@@ -258,14 +258,12 @@ def _tile_extremes(lattice: NodeLattice, sign: float) -> tuple[NDArray[np.float6
     above = (-(below + rows - 1)) % step + step
     z = np.pad(lattice.z, ((below, above), (left, right)), constant_values=np.nan)
     win = np.lib.stride_tricks.sliding_window_view(z, (SUBGRID, SUBGRID))[::step, ::step]
-    return _extreme(win, sign, axis=(2, 3)), (lattice.i0 - left) // step, (lattice.j0 - below) // step
+    return nan_extreme(win, sign, axis=(2, 3)), (lattice.i0 - left) // step, (lattice.j0 - below) // step
 
 
-def _extreme(values: NDArray[np.float64], sign: float, *, axis: int | tuple[int, ...]) -> NDArray[np.float64]:
+def nan_extreme(values: NDArray[np.float64], sign: float, *, axis: int | tuple[int, ...]) -> NDArray[np.float64]:
     """Largest (``sign`` −1: smallest) of ``values`` along ``axis``, NaN ignored; NaN where all are."""
-    best = np.where(np.isnan(values), -np.inf, sign * values).max(axis=axis)
-    best[np.isneginf(best)] = np.nan
-    return sign * best
+    return np.asarray((np.fmax if sign > 0 else np.fmin).reduce(values, axis=axis), np.float64)
 
 
 def tile_relief(

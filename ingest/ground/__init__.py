@@ -50,9 +50,10 @@ def classify_ground(
         check_spread(cloud)
         return _ground(cloud.xyz, m, progress)
     use = np.flatnonzero(~drop)
-    check_spread(cloud.take(use))
+    kept = cloud.take(use)
+    check_spread(kept)
     ground = np.zeros(len(drop), bool)
-    ground[use] = _ground(cloud.xyz[use], m, progress)
+    ground[use] = _ground(kept.xyz, m, progress)
     return ground
 
 
