@@ -74,6 +74,7 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
         surface = area_surface(area, crs=db.crs("2020"))
         from queries.changes import detect
         from queries.run import feature_collection, run
+        from tdb.geopackage import write_geopackage
         from tdb.pictures import change_map
 
         t2 = step("queries: ditches, and what changed from 2020 to 2024 (tdb query, tdb diff)")
@@ -82,11 +83,12 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
         found = detect(db, "2020", "2024")
         write_json(out / "diff.geojson", feature_collection(found, db.crs("2024")))
         change_map(out / "diff.png", found, title="2020 → 2024, 2 m tiles")
+        write_geopackage(out / "results.gpkg", {"ditches_2020": ditches, "changes": found}, crs=db.crs("2024"))
         kinds = sorted({f["properties"]["kind"] for f in found})
         done(
             t2,
             f"{len(ditches)} ditch lines → ditches.geojson; {len(found)} changed regions ({', '.join(kinds)}) "
-            f"→ diff.geojson, diff.png; true changes are in changes.geojson",
+            f"→ diff.geojson, diff.png; both layers in results.gpkg (QGIS); true changes are in changes.geojson",
         )
     write_ply(out / "aoi.ply", area)
     write_geotiff(out / "aoi.tif", surface)

@@ -44,6 +44,7 @@ class OutputFormat(Option):
     GEOJSON = "geojson"
     CSV = "csv"
     TABLE = "table"
+    GPKG = "gpkg"  # a GeoPackage file: needs --out
 
 
 class Level(Option):

@@ -6,6 +6,7 @@ import json
 from dataclasses import replace
 
 import numpy as np
+import pyogrio.raw
 import shapely
 from click.testing import CliRunner
 from hypothesis import given, settings
@@ -44,6 +45,13 @@ def test_dug_and_filled_ditches_are_found_and_typed(tmp_path):
     doc = json.loads(r.stdout)
     assert doc["type"] == "FeatureCollection" and len(doc["features"]) == len(found)
     assert (tmp_path / "c.png").exists()
+    gpkg = tmp_path / "changes.gpkg"
+    args = ["diff", "a", "b", "--db", str(tmp_path / "p.tdb"), "--format", "gpkg", "--out", str(gpkg)]
+    r = runner.invoke(main, args)
+    assert r.exit_code == 0, r.output
+    meta, _, _, fields = pyogrio.raw.read(gpkg, layer="changes")
+    kinds = dict(zip(meta["fields"], fields))["kind"]
+    assert list(kinds) == [f["properties"]["kind"] for f in found]
 
 
 def test_a_resurvey_of_unchanged_ground_reports_nothing(tmp_path):

@@ -110,6 +110,30 @@ def test_ingest_info_aoi_categories(runner, tmp_path):
     assert r.exit_code == 0 and len(r.output.strip().splitlines()) == 115
     r = runner.invoke(main, ["categories", "--atlas", str(tmp_path / "atlas.png")])
     assert r.exit_code == 0 and (tmp_path / "atlas.png").read_bytes()[:4] == b"\x89PNG"
+    _query_formats(runner, db, tmp_path)
+
+
+def _query_formats(runner, db, tmp_path):
+    """The same tiles as GeoJSON on stdout and as a GeoPackage that GDAL reads, in the survey's CRS."""
+    import json
+
+    import pyogrio.raw
+    from pyproj import CRS
+
+    text = "SELECT tiles FROM v1 WHERE bbox(500010, 5500010, 500030, 5500030)"
+    r = runner.invoke(main, ["query", text, "--db", str(db)])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    r = runner.invoke(main, ["query", text, "--db", str(db), "--format", "gpkg"])
+    assert r.exit_code != 0 and "--out" in r.output
+    gpkg = tmp_path / "tiles.gpkg"
+    r = runner.invoke(main, ["query", text, "--db", str(db), "--format", "gpkg", "--out", str(gpkg)])
+    assert r.exit_code == 0, r.output
+    meta, _, geometry, fields = pyogrio.raw.read(gpkg, layer="tiles")
+    assert CRS.from_user_input(meta["crs"]).to_epsg() == int(doc["crs"]["properties"]["name"].split(":")[-1])
+    assert len(geometry) == len(doc["features"]) == 100
+    categories = dict(zip(meta["fields"], fields))["category"]
+    assert list(categories) == [f["properties"]["category"] for f in doc["features"]]
 
 
 def test_bad_date_and_bbox(runner, tmp_path):

@@ -1,0 +1,74 @@
+"""Where query and diff results go: GeoJSON, CSV or a table as text, or a GeoPackage file."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import click
+
+from tdb.options import OutputFormat, parse
+
+F = Callable[..., Any]
+
+
+def output_options(func: F) -> F:
+    """``--format`` and ``--out`` for commands that return features."""
+    func = click.option(
+        "--out", type=click.Path(path_type=Path), help="Write here instead of standard output (needed for gpkg)."
+    )(func)
+    return click.option(
+        "--format",
+        "fmt",
+        type=click.Choice(OutputFormat.values()),
+        default=OutputFormat.GEOJSON.value,
+        show_default=True,
+        help="geojson, csv or table as text; gpkg: a GeoPackage file for QGIS.",
+    )(func)
+
+
+def check_output(fmt: str, out: Path | None) -> None:
+    """Refuse a GeoPackage without a file before any work is done."""
+    if parse(OutputFormat, fmt) is OutputFormat.GPKG and out is None:
+        raise click.UsageError("--format gpkg writes a file: give --out FILE.gpkg")
+
+
+def emit(features: list[dict[str, Any]], *, fmt: str, crs: Any, out: Path | None, layer: str, noun: str) -> None:
+    """Write ``features`` in ``fmt`` to ``out`` (or stdout) and say on stderr what went where."""
+    kind = parse(OutputFormat, fmt)
+    if kind is OutputFormat.GPKG:
+        from tdb.geopackage import write_geopackage
+
+        assert out is not None  # check_output ran first
+        write_geopackage(out, {layer: features}, crs=crs)
+    else:
+        body = render(features, kind, crs)
+        if out is None:
+            click.echo(body)
+            return
+        out.write_text(body)
+    click.echo(f"{len(features)} {noun} → {out}", err=True)
+
+
+def render(features: list[dict[str, Any]], fmt: OutputFormat, crs: Any) -> str:
+    """Features as GeoJSON text, CSV of their properties, or an aligned table."""
+    from queries.run import feature_collection
+
+    if fmt is OutputFormat.GEOJSON:
+        return json.dumps(feature_collection(features, crs))
+    rows = [f["properties"] for f in features]
+    keys = sorted({k for r in rows for k in r})
+    if fmt is OutputFormat.CSV:
+        buf = io.StringIO()
+        w = csv.DictWriter(buf, fieldnames=keys)
+        w.writeheader()
+        w.writerows(rows)
+        return buf.getvalue().rstrip("\n")
+    widths = {k: max(len(k), *(len(str(r.get(k, ""))) for r in rows)) for k in keys} if rows else {}
+    lines = ["  ".join(k.ljust(widths[k]) for k in keys)]
+    lines += ["  ".join(str(r.get(k, "")).ljust(widths[k]) for k in keys) for r in rows]
+    return "\n".join(lines) + f"\n({len(rows)} rows)"

@@ -1,0 +1,144 @@
+"""GeoPackage output: read back by GDAL (pyogrio) and checked against the spec's binary header."""
+
+from __future__ import annotations
+
+import sqlite3
+import struct
+
+import numpy as np
+import pyogrio.raw
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from pyproj import CRS
+
+from tdb.errors import InputError
+from tdb.geopackage import APPLICATION_ID, CUSTOM_SRS, _blob, write_geopackage
+
+FEATURES = [
+    {
+        "type": "Feature",
+        "geometry": shapely.geometry.mapping(shapely.LineString([(500000, 5500000), (500010.5, 5500003)])),
+        "properties": {"kind": "ditch", "tiles": 7, "length": 10.92, "depth": 0.61},
+    },
+    {
+        "type": "Feature",
+        "geometry": shapely.geometry.mapping(
+            shapely.MultiLineString(
+                [[(500020, 5500020), (500030, 5500020)], [(500030, 5500020), (500030, 5500031)]]
+            )
+        ),
+        "properties": {"kind": "ditch", "tiles": 12, "length": 21.0, "depth": None, "shoulder": 0.4},
+    },
+    {
+        "type": "Feature",
+        "geometry": shapely.geometry.mapping(shapely.box(500040, 5500040, 500044, 5500042)),
+        "properties": {"kind": "pit", "tiles": 2, "length": 0, "depth": 1.25},
+    },
+]
+
+
+def _parse_blob(blob: bytes) -> tuple[int, tuple[float, ...] | None, shapely.Geometry]:
+    assert blob[:2] == b"GP" and blob[2] == 0
+    flags = blob[3]
+    order = "<" if flags & 1 else ">"
+    (srs_id,) = struct.unpack(order + "i", blob[4:8])
+    envelope = (flags >> 1) & 0b111
+    if envelope == 0:
+        return srs_id, None, shapely.from_wkb(blob[8:])
+    assert envelope == 1  # xy
+    env = struct.unpack(order + "4d", blob[8:40])
+    return srs_id, env, shapely.from_wkb(blob[40:])
+
+
+def test_gdal_reads_back_layer_geometry_attributes_and_crs(tmp_path):
+    path = tmp_path / "out.gpkg"
+    write_geopackage(path, {"ditch": FEATURES, "empty_layer": []}, crs=CRS.from_epsg(25832))
+    layers = {name for name, _ in pyogrio.list_layers(path)}
+    assert layers == {"ditch", "empty_layer"}
+    meta, _, geometry, fields = pyogrio.raw.read(path, layer="ditch")
+    assert CRS.from_user_input(meta["crs"]).to_epsg() == 25832
+    assert list(meta["fields"]) == ["kind", "tiles", "length", "depth", "shoulder"]
+    for f, wkb in zip(FEATURES, geometry):
+        assert shapely.from_wkb(wkb).equals(shapely.geometry.shape(f["geometry"]))
+    columns = dict(zip(meta["fields"], fields))
+    assert list(columns["kind"]) == ["ditch", "ditch", "pit"]
+    assert list(columns["tiles"]) == [7, 12, 2]
+    assert np.isnan(columns["depth"][1]) and columns["depth"][2] == pytest.approx(1.25)
+    assert np.isnan(columns["shoulder"][0]) and columns["shoulder"][1] == pytest.approx(0.4)
+    info = pyogrio.read_info(path, layer="ditch")
+    assert info["geometry_type"] == "Unknown"  # mixed lines and a polygon: a generic column
+    assert info["total_bounds"] == pytest.approx((500000, 5500000, 500044, 5500042))
+
+
+def test_metadata_tables_follow_the_spec(tmp_path):
+    path = tmp_path / "out.gpkg"
+    write_geopackage(path, {"pit": FEATURES[2:]}, crs=CRS.from_epsg(32632))
+    con = sqlite3.connect(path)
+    try:
+        assert con.execute("PRAGMA application_id").fetchone()[0] == APPLICATION_ID
+        srs = {r[0] for r in con.execute("SELECT srs_id FROM gpkg_spatial_ref_sys")}
+        assert srs == {4326, -1, 0, 32632}
+        kind, srs_id = con.execute("SELECT geometry_type_name, srs_id FROM gpkg_geometry_columns").fetchone()
+        assert (kind, srs_id) == ("POLYGON", 32632)
+        (stamp,) = con.execute("SELECT last_change FROM gpkg_contents").fetchone()
+        assert len(stamp) == 24 and stamp.endswith("Z")  # YYYY-MM-DDTHH:MM:SS.SSSZ
+        (blob,) = con.execute("SELECT geom FROM pit").fetchone()
+    finally:
+        con.close()
+    srs_id, env, geom = _parse_blob(blob)
+    assert srs_id == 32632 and env == (500040, 500044, 5500040, 5500042)
+    assert geom.equals(shapely.box(500040, 5500040, 500044, 5500042))
+
+
+def test_crs_without_epsg_code_and_no_crs(tmp_path):
+    local = CRS.from_proj4("+proj=tmerc +lat_0=0 +lon_0=9.5 +k=1 +x_0=200000 +y_0=0 +ellps=GRS80 +units=m")
+    write_geopackage(tmp_path / "a.gpkg", {"x": FEATURES}, crs=local)
+    meta, *_ = pyogrio.raw.read(tmp_path / "a.gpkg")
+    assert CRS.from_user_input(meta["crs"]).equals(local, ignore_axis_order=True)
+    con = sqlite3.connect(tmp_path / "a.gpkg")
+    assert con.execute("SELECT srs_id FROM gpkg_geometry_columns").fetchone()[0] == CUSTOM_SRS
+    con.close()
+    write_geopackage(tmp_path / "b.gpkg", {"x": FEATURES}, crs=None)
+    meta, *_ = pyogrio.raw.read(tmp_path / "b.gpkg")
+    assert "Undefined Cartesian" in meta["crs"]  # GDAL's reading of srs_id -1
+
+
+def test_a_failed_write_leaves_the_old_file(tmp_path):
+    path = tmp_path / "out.gpkg"
+    write_geopackage(path, {"ditch": FEATURES}, crs=None)
+    before = path.read_bytes()
+    bad = [{"type": "Feature", "geometry": FEATURES[0]["geometry"], "properties": {"depth (m)": 1.0}}]
+    with pytest.raises(InputError, match="letters, digits"):
+        write_geopackage(path, {"ditch": bad}, crs=None)
+    with pytest.raises(InputError, match="layer name"):
+        write_geopackage(path, {"two words": FEATURES}, crs=None)
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.gpkg"]  # no temporary file left
+
+
+coords = st.floats(-1e6, 1e6, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(coords, coords), min_size=2, max_size=8), st.sampled_from(["line", "points", "hull"]))
+def test_blob_round_trip(points, shape):
+    geom = {
+        "line": shapely.LineString(points),
+        "points": shapely.MultiPoint(points),
+        "hull": shapely.MultiPoint(points).convex_hull,
+    }[shape]
+    srs_id, env, back = _parse_blob(_blob(geom, 2154))
+    assert srs_id == 2154
+    if geom.is_empty:
+        assert env is None and back.is_empty
+    else:
+        x0, y0, x1, y1 = geom.bounds
+        assert env == (x0, x1, y0, y1)
+        assert back.equals_exact(geom, 0.0)
+
+
+def test_empty_geometry_has_no_envelope():
+    srs_id, env, back = _parse_blob(_blob(shapely.LineString(), 25832))
+    assert srs_id == 25832 and env is None and back.is_empty
