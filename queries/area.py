@@ -9,25 +9,48 @@ from typing import Any
 import numpy as np
 
 from ingest.ground.tin import surface_height, triangulate
-from tdb.database import Area
+from tdb.database import Area, Database
 from tdb.errors import InputError, TdbIOError
 from tdb.raster import Raster
 
 
-def area_surface(area: Area, *, cell: float | None = None, crs: Any = None) -> Raster:
+def area_surface(
+    area: Area,
+    *,
+    cell: float | None = None,
+    crs: Any = None,
+    bbox: tuple[float, float, float, float] | None = None,
+) -> Raster:
     """The surface rebuilt from the area's points (linear TIN), on a grid of ``cell`` m
-    (default: the level's sub-grid spacing, level / 4)."""
+    (default: the level's sub-grid spacing, level / 4) over ``bbox`` (default: the area's own;
+    a smaller one keeps the grid's edge cells inside the triangulation)."""
     if len(area.x) < 3:
         raise InputError(f"the area holds {len(area.x)} points; nothing to triangulate")
     cell = cell or area.level / 4
     xyz = np.column_stack([area.x, area.y, area.z])
     tri = triangulate(xyz[:, :2])
-    x0, y0, x1, y1 = area.bbox
+    x0, y0, x1, y1 = bbox or area.bbox
     xs = np.arange(np.ceil(x0 / cell) * cell, x1 + 1e-9, cell)
     ys = np.arange(np.floor(y1 / cell) * cell, y0 - 1e-9, -cell)
     gx, gy = np.meshgrid(xs, ys)
     z, _ = surface_height(tri, xyz[:, 2], np.column_stack([gx.ravel(), gy.ravel()]))
     return Raster(z.reshape(gx.shape), float(xs[0] - cell / 2), float(ys[0] + cell / 2), cell, crs)
+
+
+def overview_surface(
+    db: Database,
+    version: str,
+    bbox: tuple[float, float, float, float],
+    *,
+    level: int = 2,
+    max_cells: int = 4_000_000,
+) -> Raster:
+    """The surface over ``bbox`` for a picture: the level's kept points triangulated, on cells of
+    level / 4 m, or coarser where that would exceed ``max_cells``."""
+    x0, y0, x1, y1 = bbox
+    cell = max(level / 4, float(np.sqrt((x1 - x0) * (y1 - y0) / max_cells)))
+    grown = (x0 - level, y0 - level, x1 + level, y1 + level)
+    return area_surface(db.aoi(grown, level=level, version=version), cell=cell, crs=db.crs(version), bbox=bbox)
 
 
 def write_ply(path: str | os.PathLike[str], area: Area) -> None:

@@ -72,7 +72,8 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
         x0, y0 = scene.bounds[:2]
         area = db.aoi((x0 + 25, y0 + 25, x0 + 225, y0 + 225), level=2, version="2020")
         surface = area_surface(area, crs=db.crs("2020"))
-        from queries.changes import detect
+        from queries.changes import detect, level_of_detection
+        from queries.dod import difference_of_surfaces
         from queries.run import feature_collection, run
         from tdb.geopackage import write_geopackage
         from tdb.pictures import change_map
@@ -82,13 +83,22 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
         write_json(out / "ditches.geojson", feature_collection(ditches, db.crs("2020")))
         found = detect(db, "2020", "2024")
         write_json(out / "diff.geojson", feature_collection(found, db.crs("2024")))
-        change_map(out / "diff.png", found, title="2020 → 2024, 2 m tiles")
+        dod = difference_of_surfaces(db, "2020", "2024")
+        write_geotiff(out / "dod.tif", dod, tags={"before": "2020", "after": "2024", "units": "m"})
+        change_map(
+            out / "diff.png",
+            found,
+            title="2020 → 2024, 2 m tiles",
+            dod=dod,
+            lod=level_of_detection(db, "2020", "2024"),
+        )
         write_geopackage(out / "results.gpkg", {"ditches_2020": ditches, "changes": found}, crs=db.crs("2024"))
         kinds = sorted({f["properties"]["kind"] for f in found})
         done(
             t2,
             f"{len(ditches)} ditch lines → ditches.geojson; {len(found)} changed regions ({', '.join(kinds)}) "
-            f"→ diff.geojson, diff.png; both layers in results.gpkg (QGIS); true changes are in changes.geojson",
+            "→ diff.geojson, diff.png (over the DEM of difference, dod.tif); both layers in results.gpkg "
+            "(QGIS); true changes are in changes.geojson",
         )
     write_ply(out / "aoi.ply", area)
     write_geotiff(out / "aoi.tif", surface)

@@ -11,8 +11,11 @@ from tdb.errors import TdbIOError
 from tdb.raster import Raster
 
 
-def write_geotiff(path: str | os.PathLike[str], raster: Raster, *, nodata: float = -9999.0) -> None:
-    """Write a single-band float32 GeoTIFF (deflate-compressed, tiled) with the raster's CRS.
+def write_geotiff(
+    path: str | os.PathLike[str], raster: Raster, *, nodata: float = -9999.0, tags: dict[str, str] | None = None
+) -> None:
+    """Write a single-band float32 GeoTIFF (deflate-compressed, tiled) with the raster's CRS and
+    ``tags`` (GDAL metadata items, which QGIS shows in the layer's properties).
 
     Written beside the destination and moved into place.
     """
@@ -38,6 +41,8 @@ def write_geotiff(path: str | os.PathLike[str], raster: Raster, *, nodata: float
     try:
         with rasterio.open(tmp, "w", **profile) as dst:
             dst.write(data, 1)
+            if tags:
+                dst.update_tags(**tags)
         os.replace(tmp, p)
     except (OSError, rasterio.errors.RasterioError) as exc:
         tmp.unlink(missing_ok=True)

@@ -77,17 +77,66 @@ def _upsample(z: NDArray[np.float64], k: int) -> NDArray[np.float64]:
     return ndimage.zoom(z, k, order=1)
 
 
-def area_picture(path: str | os.PathLike[str], area: Any, surface: Raster) -> None:
-    """Hillshade of the rebuilt surface with the tiles' category colours laid over it."""
-    plt = _pyplot()
+def _hillshade(ax: Any, surface: Raster) -> None:
     from matplotlib.colors import LightSource
 
     z = surface.data
     fill = np.where(np.isnan(z), np.nanmin(z) if np.isfinite(z).any() else 0.0, z)
     shade = LightSource(azdeg=315, altdeg=45).hillshade(fill, vert_exag=2, dx=surface.cell, dy=surface.cell)
     x0, y0, x1, y1 = surface.bounds
+    ax.imshow(np.where(np.isnan(z), np.nan, shade), cmap="gray", extent=(x0, x1, y0, y1))
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+
+
+# Line colour of each built-in filter's matches on a feature map
+KIND_COLOURS = {
+    "ditch": (0.1, 0.35, 0.9),
+    "ridge": (0.85, 0.15, 0.1),
+    "wall": (0.95, 0.55, 0.0),
+    "embankment": (0.55, 0.2, 0.7),
+    "pit": (0.0, 0.6, 0.8),
+    "mound": (0.8, 0.1, 0.5),
+}
+
+
+def feature_map(
+    path: str | os.PathLike[str], features: list[dict[str, Any]], surface: Raster, *, title: str
+) -> None:
+    """Query results drawn over the hillshade of ``surface``: lines along their centre lines,
+    polygons outlined, coloured by kind (tiles by their category's feature)."""
+    plt = _pyplot()
+    import shapely
+
+    x0, y0, x1, y1 = surface.bounds
     fig, ax = plt.subplots(figsize=(9, 9 * (y1 - y0) / max(x1 - x0, 1e-9) + 0.5))
-    ax.imshow(shade, cmap="gray", extent=(x0, x1, y0, y1))
+    _hillshade(ax, surface)
+    colours = category_colours()
+    for f in features:
+        geom = shapely.geometry.shape(f["geometry"])
+        props = f["properties"]
+        colour = colours[props["category"]] if "category" in props else KIND_COLOURS.get(props.get("kind"), "k")
+        for part in getattr(geom, "geoms", [geom]):
+            if part.is_empty:
+                continue
+            if isinstance(part, shapely.Polygon):
+                px, py = part.exterior.xy
+                ax.fill(px, py, color=colour, alpha=0.35, lw=0.8, ec=colour)
+            else:
+                px, py = part.xy
+                ax.plot(px, py, color=colour, lw=1.6)
+    kinds = sorted({str(f["properties"].get("kind", "tiles")) for f in features})
+    ax.set_title(f"{title}: {len(features)} result(s){' (' + ', '.join(kinds) + ')' if kinds else ''}")
+    fig.savefig(path, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+
+
+def area_picture(path: str | os.PathLike[str], area: Any, surface: Raster) -> None:
+    """Hillshade of the rebuilt surface with the tiles' category colours laid over it."""
+    plt = _pyplot()
+    x0, y0, x1, y1 = surface.bounds
+    fig, ax = plt.subplots(figsize=(9, 9 * (y1 - y0) / max(x1 - x0, 1e-9) + 0.5))
+    _hillshade(ax, surface)
     colours = category_colours()
     tiles = np.zeros((len(area.code), 4))
     tiles[:, :3] = colours[area.code]
@@ -95,25 +144,43 @@ def area_picture(path: str | os.PathLike[str], area: Any, surface: Raster) -> No
     for (xg, yg), rgba in zip(zip(area.xg, area.yg), tiles):
         if rgba[3] > 0:
             ax.add_patch(plt.Rectangle((xg, yg), area.level, area.level, color=rgba, lw=0))
-    ax.set_xlim(x0, x1)
-    ax.set_ylim(y0, y1)
     ax.set_title(f"{area.version}: {area.level} m tiles (red ridge, blue valley, teal/orange steps)")
     fig.savefig(path, dpi=100, bbox_inches="tight")
     plt.close(fig)
 
 
-def change_map(path: str | os.PathLike[str], features: list[dict[str, Any]], *, title: str) -> None:
-    """Changed regions coloured by the sign of the height change, labelled with their kind."""
+def change_map(
+    path: str | os.PathLike[str],
+    features: list[dict[str, Any]],
+    *,
+    title: str,
+    dod: Raster | None = None,
+    lod: float | None = None,
+) -> None:
+    """Changed regions labelled with their kind: filled by the sign of their height change, or
+    outlined over the DEM of difference ``dod`` where one is given (shades within ``lod`` are white)."""
     plt = _pyplot()
     import shapely
 
     fig, ax = plt.subplots(figsize=(9, 9))
+    if dod is not None and np.isfinite(dod.data).any():
+        from matplotlib.colors import TwoSlopeNorm
+
+        finite = np.abs(dod.data[np.isfinite(dod.data)])
+        reach = max(float(np.percentile(finite, 99.5)), 3 * (lod or 0.1), 1e-3)
+        shown = np.where(np.abs(dod.data) < (lod or 0.0), 0.0, dod.data)
+        x0, y0, x1, y1 = dod.bounds
+        img = ax.imshow(shown, cmap="RdBu", norm=TwoSlopeNorm(0.0, -reach, reach), extent=(x0, x1, y0, y1))
+        fig.colorbar(img, ax=ax, shrink=0.7, label="height change (m)")
     for f in features:
         geom = shapely.geometry.shape(f["geometry"])
         colour = (0.8, 0.2, 0.1) if f["properties"]["dz"] < 0 else (0.1, 0.35, 0.8)
         for poly in getattr(geom, "geoms", [geom]):
             x, y = poly.exterior.xy
-            ax.fill(x, y, color=colour, alpha=0.6, lw=0)
+            if dod is None:
+                ax.fill(x, y, color=colour, alpha=0.6, lw=0)
+            else:
+                ax.plot(x, y, color="black", lw=0.6)
         c = geom.representative_point()
         ax.annotate(f["properties"]["kind"], (c.x, c.y), fontsize=6)
     ax.set_aspect("equal")

@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 import pyogrio.raw
+import pytest
 import shapely
 from click.testing import CliRunner
 from hypothesis import given, settings
@@ -52,6 +53,27 @@ def test_dug_and_filled_ditches_are_found_and_typed(tmp_path):
     meta, _, _, fields = pyogrio.raw.read(gpkg, layer="changes")
     kinds = dict(zip(meta["fields"], fields))["kind"]
     assert list(kinds) == [f["properties"]["kind"] for f in found]
+    # The DEM of difference as a GeoTIFF in the survey's CRS, with the LoD among its tags.
+    import rasterio
+
+    args = ["diff", "a", "b", "--db", str(tmp_path / "p.tdb"), "--dod", str(tmp_path / "dod.tif")]
+    r = runner.invoke(main, args)
+    assert r.exit_code == 0, r.output
+    assert "DEM of difference" in r.stderr and json.loads(r.stdout)["type"] == "FeatureCollection"
+    with rasterio.open(tmp_path / "dod.tif") as src:
+        assert src.res == (0.5, 0.5) and src.crs.to_epsg() == db.crs("b").to_epsg()
+        assert float(src.tags()["level_of_detection_m"]) == pytest.approx(
+            level_of_detection(db, "a", "b"), abs=1e-3
+        )
+        dod = src.read(1, masked=True).filled(np.nan)
+        rows, cols = np.mgrid[0 : src.height, 0 : src.width]
+        x, y = rasterio.transform.xy(src.transform, rows.ravel(), cols.ravel())
+    assert sum(c.terrain for c in changes) >= 3
+    for change in changes:
+        if change.terrain:  # inside each footprint the ground moved the true way, beyond the LoD
+            inside = dod.ravel()[shapely.contains_xy(change.area, np.asarray(x), np.asarray(y))]
+            assert np.sign(np.nanmedian(inside)) == np.sign(change.dz), change.kind
+            assert abs(np.nanpercentile(inside, 50)) > level_of_detection(db, "a", "b"), change.kind
 
 
 def test_a_resurvey_of_unchanged_ground_reports_nothing(tmp_path):
@@ -196,3 +218,36 @@ def test_member_is_isin(keys, probe, vast):
     want = np.isin(tile_key(kx, ky), tile_key(sx, sy)) if len(sx) else np.zeros(len(kx), bool)
     got = _member(kx, ky, sx, sy, max_cells=1 if vast else 10**6)  # vast: the sorting fallback
     np.testing.assert_array_equal(got, want)
+
+
+def test_dem_of_difference_shows_the_new_mound_and_nothing_else(tmp_path):
+    from queries.dod import difference_of_surfaces
+    from tdb.errors import InputError
+
+    _new_mound(tmp_path, 1.2, 5.5)
+    db = tdb.open(tmp_path / "m.tdb")
+    scene = make_scene(seed=11, size=120)
+    spot = _free_spot(scene)
+    dod = difference_of_surfaces(db, "a", "b")
+    assert dod.cell == 0.5 and dod.crs is not None
+    xs, ys = dod.centres()
+    gx, gy = np.meshgrid(xs, ys)
+    r = np.hypot(gx - spot.x, gy - spot.y)
+    top = dod.data[r < 0.6]
+    assert np.nanmedian(top) == pytest.approx(1.2, abs=0.25)  # the dome's top, 1.2 m high
+    # Away from the mound (and the ground filter's unsteady ridge tops) the two surveys agree.
+    far = dod.data[(r > 8) & np.isfinite(dod.data)]
+    assert np.median(np.abs(far)) < 0.03 and np.percentile(np.abs(far), 90) < 0.15
+    # The same grid over a box is the same numbers there; too large a grid is refused or coarsened.
+    box = (spot.x - 10, spot.y - 10, spot.x + 10, spot.y + 10)
+    part = difference_of_surfaces(db, "a", "b", bbox=box)
+    assert all(abs(n * 0.5 - 20) <= 0.5 for n in part.data.shape)  # posts every 0.5 m over 20 m
+
+    px, py = np.meshgrid(*part.centres())
+    assert np.allclose(dod.sample(px.ravel(), py.ravel()), part.data.ravel(), atol=0.02, equal_nan=True)
+    with pytest.raises(InputError, match="smaller bbox"):
+        difference_of_surfaces(db, "a", "b", max_cells=1000)
+    coarse = difference_of_surfaces(db, "a", "b", max_cells=1000, fit=True)
+    assert coarse.data.size <= 1000 and (coarse.cell / 0.5).is_integer()
+    with pytest.raises(InputError, match="share no tiles"):
+        difference_of_surfaces(db, "a", "b", bbox=(0, 0, 10, 10))

@@ -134,6 +134,11 @@ def _query_formats(runner, db, tmp_path):
     assert len(geometry) == len(doc["features"]) == 100
     categories = dict(zip(meta["fields"], fields))["category"]
     assert list(categories) == [f["properties"]["category"] for f in doc["features"]]
+    # The same results drawn over the hillshade of the box.
+    png = tmp_path / "tiles.png"
+    r = runner.invoke(main, ["query", text, "--db", str(db), "--png", str(png), "--out", str(tmp_path / "t.json")])
+    assert r.exit_code == 0, r.output
+    assert png.read_bytes()[:4] == b"\x89PNG" and "map" in r.stderr
 
 
 def test_bad_date_and_bbox(runner, tmp_path):

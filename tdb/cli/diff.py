@@ -9,6 +9,8 @@ import click
 from tdb.cli.options import bbox_option
 from tdb.cli.output import check_output, emit, output_options
 
+PICTURE = 4_000_000  # most cells of a change map's background
+
 
 @click.command("diff")
 @click.argument("before")
@@ -17,7 +19,14 @@ from tdb.cli.output import check_output, emit, output_options
 @click.option("--level", type=click.Choice(["2", "4", "8", "16"]), default="2", show_default=True)
 @bbox_option()
 @output_options
-@click.option("--png", type=click.Path(path_type=Path), help="Also draw a change map.")
+@click.option(
+    "--png", type=click.Path(path_type=Path), help="Also draw a change map (over the DEM of difference)."
+)
+@click.option(
+    "--dod",
+    type=click.Path(path_type=Path),
+    help="Also write the DEM of difference (after - before, m) as a GeoTIFF on the level's sub-grid.",
+)
 def command(
     before: str,
     after: str,
@@ -27,6 +36,7 @@ def command(
     fmt: str,
     out: Path | None,
     png: Path | None,
+    dod: Path | None,
 ) -> None:
     """Compare the tile categories of two versions, gated by the level of detection, and
     report changed regions typed by the feature filters (ditch dug, ditch filled, …).
@@ -37,17 +47,39 @@ def command(
       tdb diff 2020 2024 --db park.tdb --bbox 500000,5500000,500400,5500400 --png changes.png
       tdb diff 2020 2024 --db park.tdb --format table
       tdb diff 2020 2024 --db park.tdb --format gpkg --out changes.gpkg
+      tdb diff 2020 2024 --db park.tdb --bbox 500000,5500000,500400,5500400 --dod dod.tif
     """
     import tdb
-    from queries.changes import detect
+    from queries.changes import detect, level_of_detection
+    from queries.dod import describe, difference_of_surfaces
 
     check_output(fmt, out)
     with tdb.open(db_path) as db:
         found = detect(db, before, after, level=int(level), bbox=bbox)
         crs = db.crs(after)
+        lod = level_of_detection(db, before, after)
+        if dod:
+            grid = difference_of_surfaces(db, before, after, level=int(level), bbox=bbox)
+        elif png:  # a background for the map: coarser cells over a large area
+            grid = difference_of_surfaces(
+                db, before, after, level=int(level), bbox=bbox, max_cells=PICTURE, fit=True
+            )
+        else:
+            grid = None
     emit(found, fmt=fmt, crs=crs, out=out, layer="changes", noun="changed region(s)")
+    if dod and grid is not None:
+        from tdb.geotiff import write_geotiff
+
+        tags = {"before": before, "after": after, "level_of_detection_m": f"{lod:.3f}", "units": "m"}
+        write_geotiff(dod, grid, tags=tags)
+        d = describe(grid, lod=lod)
+        click.echo(
+            f"DEM of difference → {dod} ({grid.cell} m; beyond the {lod:.2f} m level of detection "
+            f"{100 * d['lowered_share']:.1f} % lowered, {100 * d['raised_share']:.1f} % raised)",
+            err=True,
+        )
     if png:
         from tdb.pictures import change_map
 
-        change_map(png, found, title=f"{before} → {after}, {level} m tiles")
+        change_map(png, found, title=f"{before} → {after}, {level} m tiles", dod=grid, lod=lod)
         click.echo(f"change map → {png}", err=True)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -13,7 +14,8 @@ from tdb.cli.output import check_output, emit, output_options
 @click.argument("text")
 @click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
 @output_options
-def command(text: str, db_path: Path, fmt: str, out: Path | None) -> None:
+@click.option("--png", type=click.Path(path_type=Path), help="Also draw the results over a hillshade.")
+def command(text: str, db_path: Path, fmt: str, out: Path | None, png: Path | None) -> None:
     """Run a query (see docs/query-language.md). GeoJSON goes to stdout by default, in the
     database's CRS.
 
@@ -24,6 +26,7 @@ def command(text: str, db_path: Path, fmt: str, out: Path | None) -> None:
       tdb query 'SELECT wall FROM v1 WHERE length > 15' --db a.tdb --format table
       tdb query 'SELECT tiles FROM v1 WHERE category IN (10, 16)' --db a.tdb --format csv --out valleys.csv
       tdb query 'SELECT ditch FROM v1 WHERE depth > 0.5' --db a.tdb --format gpkg --out ditches.gpkg
+      tdb query 'SELECT ridge FROM v1' --db a.tdb --out ridges.geojson --png ridges.png
     """
     import tdb
     from queries.language import parse
@@ -34,4 +37,25 @@ def command(text: str, db_path: Path, fmt: str, out: Path | None) -> None:
     with tdb.open(db_path) as db:
         features = run(db, text)
         crs = db.crs(query.version)
+        if png:
+            from queries.area import overview_surface
+            from tdb.pictures import feature_map
+
+            level = query.level or 2
+            box = query.bbox or _extent(features, margin=20.0) or tuple(db.version(query.version).stats["bounds"])
+            surface = overview_surface(db, query.version, box, level=level)
+            feature_map(png, features, surface, title=f"{query.what} in {query.version}")
     emit(features, fmt=fmt, crs=crs, out=out, layer=query.what, noun="result(s)")
+    if png:
+        click.echo(f"map → {png}", err=True)
+
+
+def _extent(features: list[dict[str, Any]], *, margin: float) -> tuple[float, float, float, float] | None:
+    """Bounds of the results' geometries grown by ``margin`` m (None: no results)."""
+    import shapely
+
+    geoms = [shapely.geometry.shape(f["geometry"]) for f in features]
+    if not geoms:
+        return None
+    x0, y0, x1, y1 = shapely.total_bounds(geoms)
+    return (float(x0) - margin, float(y0) - margin, float(x1) + margin, float(y1) + margin)

@@ -1,0 +1,99 @@
+"""The DEM of difference between two versions, from the surfaces change detection compares.
+
+``after − before`` at every node of the level's sub-grid (0.5 m at level 2). Each
+version's surface is rebuilt tile by tile from the points it keeps (the tile's corners,
+its feature's nodes and those the reduction added, bridged by lines along the tile's
+rows and columns, as in :mod:`queries.changes`), so a node's value depends on its own
+tile alone: the same whatever box it is read in. Nodes of tiles that either version
+lacks, or holds as no data, stay no data rather than an interpolation across the gap.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ingest.ground.fill import fill_lines_stack
+from ingest.ground.grids import MAX_CELLS
+from ingest.tiles import tile_key
+from queries.relief import SUBGRID, node_lattice
+from tdb.categories import NO_DATA
+from tdb.database import Database
+from tdb.errors import InputError
+from tdb.raster import Raster
+
+Box = tuple[float, float, float, float]
+
+
+def difference_of_surfaces(
+    db: Database,
+    before: str,
+    after: str,
+    *,
+    level: int = 2,
+    bbox: Box | None = None,
+    max_cells: int = MAX_CELLS // 10,
+    fit: bool = False,
+) -> Raster:
+    """``after − before`` (m) at the sub-grid nodes (spacing level / 4, one cell centred on each)
+    of the tiles both versions hold inside ``bbox`` (default: all of them), in ``after``'s CRS.
+    With ``fit`` a grid over ``max_cells`` keeps every k-th node instead of raising.
+
+    Raises
+    ------
+    InputError
+        If the versions share no tiles there, or the grid would exceed ``max_cells``.
+    """
+    xa, ya, ca = db.tiles(before, level=level, bbox=bbox, ordered=False)
+    xb, yb, cb = db.tiles(after, level=level, bbox=bbox, ordered=False)
+    _, ia, ib = np.intersect1d(tile_key(xa, ya), tile_key(xb, yb), return_indices=True)
+    held = (ca[ia] != NO_DATA) & (cb[ib] != NO_DATA)
+    xg, yg = xa[ia][held], ya[ia][held]
+    if len(xg) == 0:
+        raise InputError(f"versions {before!r} and {after!r} share no tiles at level {level} there")
+    s = level / (SUBGRID - 1)
+    x0, y0, x1, y1 = bbox or (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
+    i0, j0 = int(np.ceil(x0 / s - 1e-9)), int(np.ceil(y0 / s - 1e-9))
+    i1, j1 = int(np.floor(x1 / s + 1e-9)), int(np.floor(y1 / s + 1e-9))
+    step = 1
+    cells = (i1 - i0 + 1) * (j1 - j0 + 1)
+    if cells > max_cells and fit:
+        step = int(np.ceil(np.sqrt(cells / max_cells)))
+        cells = ((i1 - i0) // step + 1) * ((j1 - j0) // step + 1)
+    if cells > max_cells:
+        raise InputError(
+            f"a {s} m difference grid over this area needs {cells:,} cells (most {max_cells:,}); "
+            "give a smaller bbox"
+        )
+    grown = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
+    dz = _surface(db, after, level, xg, yg, grown) - _surface(db, before, level, xg, yg, grown)
+    # Scatter the tiles' nodes onto the grid; neighbours share their edge nodes, with one value.
+    d = np.arange(SUBGRID)
+    ni = (np.rint(xg / s).astype(np.int64)[:, None, None] + d[None, None, :]).repeat(SUBGRID, axis=1)
+    nj = (np.rint(yg / s).astype(np.int64)[:, None, None] + d[None, :, None]).repeat(SUBGRID, axis=2)
+    rows, cols = (j1 - j0) // step + 1, (i1 - i0) // step + 1
+    ci, cj = ni - i0, nj - j0
+    ok = (ci >= 0) & (cj >= 0) & (ci % step == 0) & (cj % step == 0) & (ci // step < cols) & (cj // step < rows)
+    grid = np.full((rows, cols), np.nan)
+    grid[rows - 1 - cj[ok] // step, ci[ok] // step] = dz[ok]  # north first
+    cell = s * step
+    return Raster(grid, i0 * s - cell / 2, (j0 + (rows - 1) * step) * s + cell / 2, cell, db.crs(after))
+
+
+def _surface(db: Database, version: str, level: int, xg: Any, yg: Any, box: Box) -> np.ndarray:
+    x, y, z, _ = db.points(version, level=level, bbox=box, ordered=False)
+    nodes = node_lattice(x, y, z, level).tile_nodes(xg, yg)
+    return fill_lines_stack(nodes, passes=2).reshape(nodes.shape)
+
+
+def describe(dod: Raster, *, lod: float) -> dict[str, Any]:
+    """Summary of a difference grid: cells with data, and the shares lowered and raised beyond ``lod``."""
+    v = dod.data[np.isfinite(dod.data)]
+    n = max(len(v), 1)
+    return {
+        "cells": len(v),
+        "lowered_share": float((v <= -lod).sum() / n),
+        "raised_share": float((v >= lod).sum() / n),
+        "median_dz": float(np.median(v)) if len(v) else float("nan"),
+    }
