@@ -222,8 +222,16 @@ def epochs_section(out: list[str]) -> None:
         f"{doc['agreement_with_dod_pct']:.1f} % "
         f"of tiles (DoD flags {doc['dod_changed_tiles']:,} tiles, tdb {doc['tdb_changed_tiles']:,}: tdb's "
         "regions start where the category changed and drop small or incoherent ones).",
-        "",
     ]
+    if "kept_vs_dense_dod_rmse_m" in doc:
+        out.append(
+            f"- The DEM of difference `tdb diff --dod` writes from the kept points ({doc['kept_dod_nodes']:,} "
+            f"nodes of 0.5 m, in {doc['kept_dod_s']:.2f} s) against the one of the two dense 0.5 m models: "
+            f"RMSE {doc['kept_vs_dense_dod_rmse_m']:.3f} m, "
+            f"95th percentile {doc['kept_vs_dense_dod_p95_m']:.3f} m; "
+            f"{doc['kept_dod_within_lod_pct']:.1f} % of nodes within the LoD."
+        )
+    out.append("")
 
 
 def changes_section(out: list[str]) -> None:
