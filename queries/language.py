@@ -2,10 +2,12 @@
 
     SELECT ditch FROM v2020 WHERE bbox(500000, 5500000, 500400, 5500400) AND length > 20 AT LEVEL 2
     SELECT tiles FROM v2020 WHERE category IN (10, 16, 22)
-    SELECT changes FROM v2020 TO v2024 WHERE bbox(...) AT LEVEL 2
+    SELECT changes FROM v2020 TO v2024 WHERE bbox(...) AND kind = 'ditch dug' AT LEVEL 2
+    SELECT ditch FROM v2020 WHERE depth > 0.5 ORDER BY length DESC LIMIT 10
 
-Names may be quoted ("2020") when they are not plain words. Errors carry line and
-column with a caret. Values reach the database only as bound parameters.
+Names may be quoted ("2020") when they are not plain words; text values take single
+quotes ('ditch dug'), as in SQL. Errors carry line and column with a caret. Values
+reach the database only as bound parameters.
 """
 
 from __future__ import annotations
@@ -17,18 +19,22 @@ from tdb.errors import QueryError
 
 TOKEN = re.compile(
     r"""(?P<ws>\s+)|(?P<number>-?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)"""
-    r"""|(?P<string>"[^"\n]*")|(?P<op><=|>=|!=|=|<|>)|(?P<punct>[(),])"""
+    r"""|(?P<string>"[^"\n]*")|(?P<text>'[^'\n]*')|(?P<op><=|>=|!=|=|<|>)|(?P<punct>[(),])"""
 )
-KEYWORDS = {"select", "from", "to", "where", "and", "at", "level", "in", "bbox", "category"}
-ATTRIBUTES = {"length", "tiles", "depth", "height", "shoulder", "area", "dz"}
+KEYWORDS = {
+    *("select", "from", "to", "where", "and", "at", "level", "in", "bbox", "category"),
+    *("order", "by", "asc", "desc", "limit"),
+}
+ATTRIBUTES = {"length", "tiles", "depth", "height", "shoulder", "area", "dz", "lod"}
+TEXT_ATTRIBUTES = {"kind", "description"}
 LEVELS = {2, 4, 8, 16}
 
 
 @dataclass
 class Condition:
     attribute: str
-    op: str
-    value: float
+    op: str  # a comparison, or "in" (value: a tuple of texts)
+    value: float | str | tuple[str, ...]
 
 
 @dataclass
@@ -40,6 +46,9 @@ class Query:
     categories: list[int] | None = None
     conditions: list[Condition] = field(default_factory=list)
     level: int | None = None
+    order_by: str | None = None
+    descending: bool = False
+    limit: int | None = None
 
 
 @dataclass(frozen=True)
@@ -62,6 +71,8 @@ def tokenize(text: str) -> list[Token]:
                 kind, value = "kw", value.lower()
             elif kind == "string":
                 kind, value = "name", value[1:-1]
+            elif kind == "text":
+                value = value[1:-1]
             out.append(Token(kind, value, pos))
         pos = m.end()
     out.append(Token("end", "", len(text)))
@@ -120,6 +131,24 @@ class _Parser:
             if level not in LEVELS:
                 raise self.error("level must be 2, 4, 8 or 16", tok)
             q.level = int(level)
+        if self.accept("kw", "order"):
+            self.expect("kw", "by")
+            t = self.peek()
+            if t.kind == "name" or (t.kind == "kw" and t.text == "category"):
+                self.i += 1
+            else:
+                raise self.error("expected an attribute to order by")
+            q.order_by = t.text.lower()
+            if self.accept("kw", "desc"):
+                q.descending = True
+            else:
+                self.accept("kw", "asc")
+        if self.accept("kw", "limit"):
+            tok = self.peek()
+            count = self.number()
+            if count != int(count) or count < 0:
+                raise self.error("LIMIT takes a whole number", tok)
+            q.limit = int(count)
         self.expect("end")
         return q
 
@@ -156,8 +185,23 @@ class _Parser:
             self.i += 1
             op = self.expect("op").text
             q.conditions.append(Condition(t.text.lower(), op, self.number()))
+        elif t.kind == "name" and t.text.lower() in TEXT_ATTRIBUTES:
+            self.i += 1
+            if self.accept("kw", "in"):
+                self.expect("punct", "(")
+                texts = [self.expect("text").text]
+                while self.accept("punct", ","):
+                    texts.append(self.expect("text").text)
+                self.expect("punct", ")")
+                q.conditions.append(Condition(t.text.lower(), "in", tuple(texts)))
+                return
+            compare = self.peek()
+            if not self.accept("op", "=") and not self.accept("op", "!="):
+                raise self.error("text compares with =, != or IN (...)", compare)
+            q.conditions.append(Condition(t.text.lower(), compare.text, self.expect("text").text))
         else:
-            raise self.error(f"expected bbox(...), category IN (...) or one of {', '.join(sorted(ATTRIBUTES))}")
+            names = ", ".join(sorted(ATTRIBUTES | TEXT_ATTRIBUTES))
+            raise self.error(f"expected bbox(...), category IN (...) or one of {names}")
 
 
 def parse(text: str) -> Query:

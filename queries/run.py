@@ -21,12 +21,28 @@ OPS = {
     ">=": operator.ge,
     "=": operator.eq,
     "!=": operator.ne,
+    "in": lambda value, texts: value in texts,
 }
 
 
 def run(db: Database, text: str) -> list[dict[str, Any]]:
     """Run a query; return GeoJSON Feature dicts in the database's CRS."""
     q = parse(text)
+    return _order(_select(db, q, text), q)
+
+
+def _order(features: list[dict[str, Any]], q: Query) -> list[dict[str, Any]]:
+    if q.order_by is not None and features:
+        key = q.order_by
+        missing = [f for f in features if f["properties"].get(key) is None]
+        if missing:
+            have = ", ".join(sorted(missing[0]["properties"]))
+            raise QueryError(f"{q.what} results have no attribute {key!r} to order by (they have: {have})")
+        features = sorted(features, key=lambda f: f["properties"][key], reverse=q.descending)
+    return features if q.limit is None else features[: q.limit]
+
+
+def _select(db: Database, q: Query, text: str) -> list[dict[str, Any]]:
     db.version(q.version)  # a clear error for an unknown version before any work
     if q.what == "tiles":
         return _tiles(db, q)

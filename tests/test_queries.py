@@ -25,6 +25,15 @@ def test_parse_full_query():
     assert q.categories == [10, 16, 22]
     q = parse("SELECT changes FROM a TO b AT LEVEL 8")
     assert (q.version, q.to_version, q.level) == ("a", "b", 8)
+    q = parse("SELECT changes FROM a TO b WHERE kind IN ('ditch dug', 'ditch filled') AND dz < -0.5")
+    assert [(c.attribute, c.op, c.value) for c in q.conditions] == [
+        ("kind", "in", ("ditch dug", "ditch filled")),
+        ("dz", "<", -0.5),
+    ]
+    q = parse("SELECT ditch FROM v WHERE kind != 'x' AT LEVEL 4 ORDER BY length DESC LIMIT 3")
+    assert (q.order_by, q.descending, q.limit, q.level) == ("length", True, 3, 4)
+    q = parse("SELECT tiles FROM v ORDER BY category ASC")
+    assert (q.order_by, q.descending, q.limit) == ("category", False, None)
 
 
 @pytest.mark.parametrize(
@@ -36,6 +45,11 @@ def test_parse_full_query():
         ("SELECT ditch FROM v1 WHERE bbox(3, 3, 1, 1)", 1, 28),
         ("SELECT ditch FROM v1 WHERE colour = 2", 1, 28),
         ("SELECT ditch FROM v1 ; DROP TABLE tdb", 1, 22),
+        ("SELECT changes FROM a TO b WHERE kind > 'ditch dug'", 1, 39),
+        ("SELECT changes FROM a TO b WHERE kind = 2", 1, 41),
+        ("SELECT ditch FROM v1 LIMIT 2.5", 1, 28),
+        ("SELECT ditch FROM v1 ORDER length", 1, 28),
+        ("SELECT ditch FROM v1 LIMIT 2 ORDER BY length", 1, 30),
     ],
 )
 def test_parse_errors_locate_the_problem(text, line, column):
@@ -77,6 +91,13 @@ def test_any_text_parses_or_raises_query_error(text):
                 "category",
                 "IN",
                 "(1,2)",
+                "kind",
+                "=",
+                "'ditch dug'",
+                "ORDER",
+                "BY",
+                "DESC",
+                "LIMIT",
                 "(",
                 ")",
                 ",",
@@ -140,6 +161,19 @@ def test_queries_on_a_database(tmp_path):
     for f in run(db, "SELECT ditch FROM v1 WHERE length > 5"):
         assert f["geometry"]["type"] in ("LineString", "MultiLineString") and f["properties"]["length"] > 5
     assert run(db, "SELECT changes FROM v1 TO v1") == []  # a survey compared with itself
+    # Ordering and limits; text conditions.
+    ditches = run(db, "SELECT ditch FROM v1")
+    longest = run(db, "SELECT ditch FROM v1 ORDER BY length DESC LIMIT 2")
+    lengths = sorted((f["properties"]["length"] for f in ditches), reverse=True)
+    assert len(ditches) > 2 and [f["properties"]["length"] for f in longest] == lengths[:2]
+    shallow = run(db, "SELECT ditch FROM v1 ORDER BY depth")
+    depths = [f["properties"]["depth"] for f in shallow]
+    assert depths == sorted(depths) and len(shallow) == len(ditches)
+    assert run(db, "SELECT ditch FROM v1 WHERE kind = 'ditch'") == ditches
+    assert run(db, "SELECT ditch FROM v1 WHERE kind IN ('ridge', 'pit')") == []
+    assert run(db, "SELECT ditch FROM v1 LIMIT 0") == []
+    with pytest.raises(QueryError, match="no attribute 'area' to order by"):
+        run(db, "SELECT ditch FROM v1 ORDER BY area")
     with pytest.raises(tdb.TdbError, match="no version"):
         run(db, "SELECT ditch FROM nope")
     json.dumps(run(db, "SELECT mound FROM v1"))
