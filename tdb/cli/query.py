@@ -27,6 +27,8 @@ def command(text: str, db_path: Path, fmt: str, out: Path | None, png: Path | No
       tdb query 'SELECT tiles FROM v1 WHERE category IN (10, 16)' --db a.tdb --format csv --out valleys.csv
       tdb query 'SELECT ditch FROM v1 WHERE depth > 0.5' --db a.tdb --format gpkg --out ditches.gpkg
       tdb query 'SELECT ridge FROM v1' --db a.tdb --out ridges.geojson --png ridges.png
+      tdb query 'SELECT ditch FROM v1 WHERE depth >= 0.5 ORDER BY length DESC LIMIT 10' --db a.tdb
+      tdb query "SELECT changes FROM v1 TO v2 WHERE kind = 'ditch dug'" --db a.tdb --format table
     """
     import tdb
     from queries.language import parse
