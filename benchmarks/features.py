@@ -7,7 +7,9 @@ reported polygon lies within 2 m of its centre; a reported polygon is right wher
 lies within 2 m of the footprint of a true one of any size. Walls (1–1.6 m wide,
 1–1.8 m high) and ridges (3–6 m wide) make the same tiles; the ridge and wall filters
 part them by their shoulders (queries/shoulder.py). ``precision_forms`` counts a
-reported ridge or wall right near either.
+reported ridge or wall right near either. ``ditch_class`` asks for the size class
+itself, ``SELECT ditch … WHERE depth >= 0.5 AND width >= 1.5``: stretches measured by
+their cross-sections (queries/profile.py), scored against the same truth.
     python -m benchmarks.features [--seeds 1,2,...,10] [--size 300] [--density 4]
 """
 
@@ -25,8 +27,10 @@ from benchmarks.common import save_runs, synthetic_runs
 from ingest.pipeline import ingest
 from ingest.synth import make_scene, sample
 from queries.match import find
+from queries.run import run
 
 TOL = 2.0
+CLASS_QUERY = "SELECT ditch FROM v WHERE depth >= 0.5 AND width >= 1.5"
 
 
 def score(truth: list[shapely.Geometry], found: list[shapely.Geometry]) -> tuple[float, float]:
@@ -61,6 +65,19 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
             "found_m": float(sum(g.length for g in found)),
             "query_s": time.perf_counter() - t0,
         }
+    truth = [f.geometry for f in scene.features if f.kind == "ditch" and f.size >= 0.5 and f.width >= 1.5]
+    t0 = time.perf_counter()
+    found = [shapely.geometry.shape(f["geometry"]) for f in run(db, CLASS_QUERY)]
+    r, p = score(truth, found)
+    _, p_forms = score([f.geometry for f in scene.features if f.kind == "ditch"], found)
+    out["ditch_class"] = {
+        "recall": r,
+        "precision": p,
+        "precision_forms": p_forms,
+        "true_m": float(sum(g.length for g in truth)),
+        "found_m": float(sum(g.length for g in found)),
+        "query_s": time.perf_counter() - t0,
+    }
     for kind in ("mound", "pit"):
         t0 = time.perf_counter()
         found = [m.geometry for m in find(db, "v", kind)]
@@ -82,7 +99,7 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
 def _mean(runs: dict[int, Any]) -> dict[str, dict[str, float]]:
     summary = {
         k: {m: float(np.mean([runs[s][k][m] for s in runs])) for m in ("recall", "precision", "precision_forms")}
-        for k in ("ditch", "ridge", "wall")
+        for k in ("ditch", "ditch_class", "ridge", "wall")
     }
     for k in ("mound", "pit"):
         summary[k] = {m: float(np.nanmean([runs[s][k][m] for s in runs])) for m in ("recall", "precision")}

@@ -195,7 +195,10 @@ def features_section(out: list[str]) -> None:
         "(shallower and narrower ones are real ditches too) or every ridge and wall (the ridge and wall "
         "filters part one form by its shoulder); see `benchmarks/features.py`. Mounds and pits are counted, "
         "not measured by length: a true one at least 0.5 m high (deep) is found where a match lies within 2 m "
-        "of its centre, and a match is right within 2 m of any true one's footprint (no target in the issue).",
+        "of its centre, and a match is right within 2 m of any true one's footprint (no target in the issue). "
+        "`ditch_class` is the size class asked for in the query language, `SELECT ditch FROM v WHERE depth >= 0.5 "
+        "AND width >= 1.5`: the ditch matches cut into stretches of about 20 m, each with the depth and width of "
+        "its fitted cross-section (`queries/profile.py`), scored against the same size-class truth.",
         "",
     ]
 

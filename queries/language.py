@@ -25,7 +25,7 @@ KEYWORDS = {
     *("select", "from", "to", "where", "and", "at", "level", "in", "bbox", "category"),
     *("order", "by", "asc", "desc", "limit"),
 }
-ATTRIBUTES = {"length", "tiles", "depth", "height", "shoulder", "area", "dz", "lod"}
+ATTRIBUTES = {"length", "tiles", "depth", "height", "shoulder", "width", "area", "dz", "lod"}
 TEXT_ATTRIBUTES = {"kind", "description"}
 LEVELS = {2, 4, 8, 16}
 

@@ -8,8 +8,10 @@ from typing import Any
 import numpy as np
 import shapely
 
+from queries.filters import Match
 from queries.language import Query, parse
-from queries.match import find
+from queries.match import find, resolve
+from queries.profile import SIDE, Stretch, stretches, weighted_median
 from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import QueryError
@@ -61,8 +63,11 @@ def _select(db: Database, q: Query, text: str) -> list[dict[str, Any]]:
         raise QueryError(
             "category IN (...) belongs to SELECT tiles", text=text, position=text.lower().find("category")
         )
+    matches = find(db, q.version, q.what, level=q.level, bbox=q.bbox)
+    if "width" in {c.attribute for c in q.conditions} | {q.order_by}:
+        return _by_stretch(db, q, matches)
     out = []
-    for m in find(db, q.version, q.what, level=q.level, bbox=q.bbox):
+    for m in matches:
         props = {
             "kind": m.filter,
             "level": m.level,
@@ -74,6 +79,45 @@ def _select(db: Database, q: Query, text: str) -> list[dict[str, Any]]:
             props["shoulder"] = round(m.shoulder, 2)
         if _keep(props, q):
             out.append({"type": "Feature", "geometry": shapely.geometry.mapping(m.geometry), "properties": props})
+    return out
+
+
+def _by_stretch(db: Database, q: Query, matches: list[Match]) -> list[dict[str, Any]]:
+    """Matches cut into stretches with their own cross-section (:mod:`queries.profile`): the
+    stretches whose width and depth (height) pass the query, joined where they follow on."""
+    flt = resolve(q.what)
+    if not flt.linear or flt.measure == "step":
+        raise QueryError(f"{q.what} results have no width: ditch, ridge and wall lines do")
+    if not matches:
+        return []
+    name = "depth" if flt.measure == "depth" else "height"
+    x0, y0, x1, y1 = shapely.total_bounds([m.geometry for m in matches])
+    grow = SIDE[1] + matches[0].level
+    x, y, z, _ = db.points(q.version, level=matches[0].level, bbox=(x0 - grow, y0 - grow, x1 + grow, y1 + grow))
+    by_piece = Query(q.what, q.version, conditions=[c for c in q.conditions if c.attribute in ("width", name)])
+    out = []
+    for m in matches:
+        runs: list[list[Stretch]] = []
+        for st in stretches(m.geometry, (x, y, z), measure=flt.measure):
+            if not (np.isfinite(st.width) and _keep({"width": st.width, name: st.measure}, by_piece)):
+                runs.append([])
+            elif runs and runs[-1] and runs[-1][-1].part == st.part:
+                runs[-1].append(st)
+            else:
+                runs.append([st])
+        for run_ in filter(None, runs):
+            weight = np.array([st.line.length for st in run_])
+            props = {
+                "kind": m.filter,
+                "level": m.level,
+                "tiles": len(m.tiles),
+                "length": round(float(weight.sum()), 2),
+                name: round(weighted_median(np.array([st.measure for st in run_]), weight), 3),
+                "width": round(weighted_median(np.array([st.width for st in run_]), weight), 2),
+            }
+            if _keep(props, q):
+                geom = shapely.line_merge(shapely.union_all([st.line for st in run_]))
+                out.append({"type": "Feature", "geometry": shapely.geometry.mapping(geom), "properties": props})
     return out
 
 

@@ -1,0 +1,155 @@
+"""Cross-sections of linear forms: depth (or height) and width along a ditch, ridge or wall.
+
+A form's width changes along it, and a match joins several forms at junctions, so
+the width is measured stretch by stretch: each part of a match's centre line
+(between junctions) is smoothed (the line runs through each tile's lowest node and
+wanders by up to half a metre), cut into pieces of about ``PIECE`` m, and every stored
+node within ``SIDE[1]`` m of a piece gives one sample of the cross-section: its signed
+offset from the line and its depth below the plane fitted to the nodes ``SIDE`` m off
+(height above it for ridges). A profile ``D · (1 − |(s − c) / h|^p)`` for p in 1 (a V),
+2 and 4 (a flat-bottomed U) is fitted robustly to the samples within ``BAND`` m; the
+best fit gives the depth D and the width 2h.
+
+The stored surface is a blurred picture of the ground (0.5 m posts from points about
+0.5 m apart): a narrow form reads wider than it is, and by the same amount in quadrature
+whatever its width. ``BLUR`` (0.77 m) is that amount, taken from fits along the true
+axes of 1–2 m wide ditches on synthetic scenes (seeds 21–30, 4 points/m²: 1.25 m read
+as 1.47, 1.75 as 1.92); widths are reported as √(fit² − BLUR²). The depth is reported as
+fitted and divided by ``DEPTH_SHARE`` (0.934): the blur rounds a V's bottom off, and along
+the true axes of ditches at least 1.5 m wide (same seeds) the fit read that share of the depth,
+length-weighted median, alike for depths of 0.3–0.6, 0.6–1 and 1–1.5 m (0.96, 0.93, 0.93).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+import shapely.ops
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+PIECE = 20.0  # m of line per cross-section fit
+MIN_PART = 8.0  # m: a shorter part (a junction's stub) takes its match's width and depth
+BAND = 3.0  # m either side of the line whose nodes sample the form
+SIDE = (3.5, 6.0)  # m off the line: the terrain beside, as a plane
+BLUR = 0.77  # m, added in quadrature to a width by the stored surface (see the module)
+DEPTH_SHARE = 0.934  # of a form's depth (height) that the fit reads through the blur
+SHAPES = (1.0, 2.0, 4.0)  # profile exponents: V, rounded, flat-bottomed
+MIN_SAMPLES = 10
+
+
+@dataclass(frozen=True)
+class Stretch:
+    """One piece of a match's centre line with its cross-section (NaN: not measured)."""
+
+    line: shapely.LineString
+    part: int  # the part of the match's line (between junctions) it belongs to
+    measure: float  # depth or height (m)
+    width: float  # m
+
+
+def fit_profile(
+    offset: NDArray[np.float64], relief: NDArray[np.float64], *, blur: float = BLUR
+) -> tuple[float, float]:
+    """(height, width) of the profile family that best fits ``relief`` (m, positive into the form)
+    at signed ``offset`` (m) from the line; the width less ``blur`` in quadrature, the height over
+    ``DEPTH_SHARE`` (where ``blur`` is not zero)."""
+    top = float(np.clip(np.percentile(relief, 95), 0.05, 4.9))
+    best: tuple[float, float, float] | None = None
+    for p in SHAPES:
+
+        def residual(t: NDArray[np.float64], p: float = p) -> NDArray[np.float64]:
+            d, h, c = t
+            return d * np.clip(1 - (np.abs(offset - c) / h) ** p, 0, None) - relief
+
+        for h0 in (0.75, 1.5):
+            fit = least_squares(
+                residual, [top, h0, 0.0], bounds=([0, 0.2, -1.0], [5, 4, 1.0]), loss="soft_l1", f_scale=0.1
+            )
+            if best is None or fit.cost < best[0]:
+                best = (float(fit.cost), float(fit.x[0]), float(2 * fit.x[1]))
+    assert best is not None
+    height = best[1] / DEPTH_SHARE if blur else best[1]
+    return height, float(np.sqrt(max(best[2] ** 2 - blur**2, 0.0)))
+
+
+def smooth_line(line: shapely.LineString, *, window: float = 2.0, step: float = 0.5) -> shapely.LineString:
+    """The line resampled every ``step`` m and averaged over ``window`` m either side."""
+    n = max(int(line.length / step), 2)
+    xy = shapely.get_coordinates(shapely.line_interpolate_point(line, np.linspace(0, line.length, n + 1)))
+    k = max(int(window / step), 1)
+    if len(xy) <= 2 * k:
+        return line
+    kernel = np.ones(2 * k + 1) / (2 * k + 1)
+    pad = np.pad(xy, ((k, k), (0, 0)), mode="edge")
+    return shapely.LineString(np.column_stack([np.convolve(pad[:, i], kernel, "valid") for i in (0, 1)]))
+
+
+def stretches(
+    line: shapely.Geometry,
+    nodes: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    *,
+    measure: str = "depth",
+) -> list[Stretch]:
+    """The stretches of one match's centre line (Multi)LineString with their cross-sections,
+    from the stored ``nodes`` (x, y, z) around it. Pieces too short or too sparse to fit take
+    the length-weighted median of the match's measured ones."""
+    x, y, z = nodes
+    points = shapely.points(x, y)
+    tree = shapely.STRtree(points)
+    sign = 1.0 if measure == "depth" else -1.0
+    out: list[Stretch] = []
+    for k, part in enumerate(getattr(line, "geoms", [line])):
+        if part.is_empty or part.length == 0:
+            continue
+        smooth = smooth_line(part)
+        count = max(round(smooth.length / PIECE), 1)
+        for i in range(count):
+            piece = shapely.ops.substring(smooth, i * smooth.length / count, (i + 1) * smooth.length / count)
+            fitted = part.length >= MIN_PART and isinstance(piece, shapely.LineString) and piece.length > 0
+            d, w = _cross_section(piece, points, tree, x, y, z, sign) if fitted else (np.nan, np.nan)
+            out.append(Stretch(piece, k, d, w))
+    measured = [s for s in out if np.isfinite(s.width)]
+    if measured and len(measured) < len(out):
+        weight = np.array([s.line.length for s in measured])
+        d = weighted_median(np.array([s.measure for s in measured]), weight)
+        w = weighted_median(np.array([s.width for s in measured]), weight)
+        out = [s if np.isfinite(s.width) else Stretch(s.line, s.part, d, w) for s in out]
+    return out
+
+
+def _cross_section(
+    piece: shapely.LineString,
+    points: NDArray[np.object_],
+    tree: shapely.STRtree,
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    z: NDArray[np.float64],
+    sign: float,
+) -> tuple[float, float]:
+    idx = tree.query(piece, predicate="dwithin", distance=SIDE[1])
+    at = shapely.line_locate_point(piece, points[idx])
+    inner = (at > 0.01) & (at < piece.length - 0.01)  # beside the piece, not beyond its ends
+    idx, at = idx[inner], at[inner]
+    dist = shapely.distance(points[idx], piece)
+    a = shapely.line_interpolate_point(piece, np.maximum(at - 0.5, 0))
+    b = shapely.line_interpolate_point(piece, np.minimum(at + 0.5, piece.length))
+    ax, ay = shapely.get_x(a), shapely.get_y(a)
+    tx, ty = shapely.get_x(b) - ax, shapely.get_y(b) - ay
+    offset = np.sign(tx * (y[idx] - ay) - ty * (x[idx] - ax)) * dist
+    far, near = dist > SIDE[0], dist < BAND
+    if far.sum() < MIN_SAMPLES or near.sum() < MIN_SAMPLES:
+        return np.nan, np.nan
+    mx, my = x[idx].mean(), y[idx].mean()
+    design = np.column_stack([np.ones(len(idx)), x[idx] - mx, y[idx] - my])
+    coef = np.linalg.lstsq(design[far], z[idx][far], rcond=None)[0]
+    relief = sign * (design @ coef - z[idx])
+    return fit_profile(offset[near], relief[near])
+
+
+def weighted_median(values: NDArray[np.float64], weights: NDArray[np.float64]) -> float:
+    order = np.argsort(values)
+    cum = np.cumsum(weights[order])
+    return float(values[order][np.searchsorted(cum, cum[-1] / 2)])
