@@ -47,37 +47,42 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
     # the scenes' low outliers (class 7) stay in: the filter must find them, as in an unclassified survey
     ingest(sample(scene, density=density, seed=seed), db, version="v", exclude=())
     out = {}
-    for kind, cut, forms in (
-        ("ditch", lambda f: f.kind == "ditch" and f.size >= 0.5 and f.width >= 1.5, ("ditch",)),
-        ("ridge", lambda f: f.kind == "ridge", ("ridge", "wall")),
-        ("wall", lambda f: f.kind == "wall", ("ridge", "wall")),
+    size_class = lambda f: f.kind == "ditch" and f.size >= 0.5 and f.width >= 1.5  # noqa: E731
+    for name, cut, forms, ask in (
+        ("ditch", size_class, ("ditch",), lambda: [m.geometry for m in find(db, "v", "ditch")]),
+        (
+            "ridge",
+            lambda f: f.kind == "ridge",
+            ("ridge", "wall"),
+            lambda: [m.geometry for m in find(db, "v", "ridge")],
+        ),
+        (
+            "wall",
+            lambda f: f.kind == "wall",
+            ("ridge", "wall"),
+            lambda: [m.geometry for m in find(db, "v", "wall")],
+        ),
+        (
+            "ditch_class",
+            size_class,
+            ("ditch",),
+            lambda: [shapely.geometry.shape(f["geometry"]) for f in run(db, CLASS_QUERY)],
+        ),
     ):
         truth = [f.geometry for f in scene.features if cut(f)]
         t0 = time.perf_counter()
-        found = [m.geometry for m in find(db, "v", kind)]
+        found = ask()
+        seconds = time.perf_counter() - t0
         r, p = score(truth, found)
         _, p_forms = score([f.geometry for f in scene.features if f.kind in forms], found)
-        out[kind] = {
+        out[name] = {
             "recall": r,
             "precision": p,
             "precision_forms": p_forms,
             "true_m": float(sum(g.length for g in truth)),
             "found_m": float(sum(g.length for g in found)),
-            "query_s": time.perf_counter() - t0,
+            "query_s": seconds,
         }
-    truth = [f.geometry for f in scene.features if f.kind == "ditch" and f.size >= 0.5 and f.width >= 1.5]
-    t0 = time.perf_counter()
-    found = [shapely.geometry.shape(f["geometry"]) for f in run(db, CLASS_QUERY)]
-    r, p = score(truth, found)
-    _, p_forms = score([f.geometry for f in scene.features if f.kind == "ditch"], found)
-    out["ditch_class"] = {
-        "recall": r,
-        "precision": p,
-        "precision_forms": p_forms,
-        "true_m": float(sum(g.length for g in truth)),
-        "found_m": float(sum(g.length for g in found)),
-        "query_s": time.perf_counter() - t0,
-    }
     for kind in ("mound", "pit"):
         t0 = time.perf_counter()
         found = [m.geometry for m in find(db, "v", kind)]
