@@ -136,6 +136,11 @@ def _column_type(values: list[Any]) -> str:
 
 def _write_layer(con: sqlite3.Connection, name: str, features: Sequence[dict[str, Any]], srs_id: int) -> None:
     geoms = [shapely.geometry.shape(f["geometry"]) if f.get("geometry") else None for f in features]
+    kinds = {g.geom_type for g in geoms if g is not None}
+    multi = {"LineString": shapely.MultiLineString, "Polygon": shapely.MultiPolygon, "Point": shapely.MultiPoint}
+    for single, many in multi.items():
+        if kinds == {single, many.__name__}:  # one type for the layer, as GIS layers expect
+            geoms = [many([g]) if g is not None and g.geom_type == single else g for g in geoms]
     keys: list[str] = []
     for f in features:
         keys += [k for k in f.get("properties", {}) if k not in keys]
@@ -155,7 +160,7 @@ def _write_layer(con: sqlite3.Connection, name: str, features: Sequence[dict[str
     marks = ", ".join("?" * (len(keys) + 1))
     names = "".join(f', "{k}"' for k in keys)
     con.executemany(f'INSERT INTO "{name}" (geom{names}) VALUES ({marks})', rows)
-    kinds = {g.geom_type.upper() for g in geoms if g is not None}
+    kinds = {g.geom_type.upper() for g in geoms if g is not None}  # after promotion to multi types
     extent = shapely.GeometryCollection([g for g in geoms if g is not None and not g.is_empty]).bounds
     con.execute(
         "INSERT INTO gpkg_contents (table_name, data_type, identifier, last_change, min_x, min_y, max_x, max_y,"

@@ -92,6 +92,14 @@ def test_metadata_tables_follow_the_spec(tmp_path):
     assert geom.equals(shapely.box(500040, 5500040, 500044, 5500042))
 
 
+def test_single_and_multi_parts_make_one_multi_layer(tmp_path):
+    write_geopackage(tmp_path / "l.gpkg", {"ditch": FEATURES[:2]}, crs=CRS.from_epsg(25832))
+    assert pyogrio.read_info(tmp_path / "l.gpkg", layer="ditch")["geometry_type"] == "MultiLineString"
+    _, _, geometry, _ = pyogrio.raw.read(tmp_path / "l.gpkg", layer="ditch")
+    first = shapely.from_wkb(geometry[0])
+    assert first.geom_type == "MultiLineString" and first.equals(shapely.geometry.shape(FEATURES[0]["geometry"]))
+
+
 def test_crs_without_epsg_code_and_no_crs(tmp_path):
     local = CRS.from_proj4("+proj=tmerc +lat_0=0 +lon_0=9.5 +k=1 +x_0=200000 +y_0=0 +ellps=GRS80 +units=m")
     write_geopackage(tmp_path / "a.gpkg", {"x": FEATURES}, crs=local)
