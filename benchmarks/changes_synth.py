@@ -26,6 +26,7 @@ from benchmarks.common import save_runs, synthetic_runs
 from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
 from queries.changes import detect
+from queries.dod import difference_of_surfaces
 from queries.match import find
 
 EXPECTED = {
@@ -76,7 +77,8 @@ def km2_pair(workdir: Path, *, density: float, size: float = 1000.0, rounds: int
 
 def diff_seconds(path: Path, *, runs: int = 3) -> dict[str, float]:
     """Seconds of ``runs`` diffs, and of ``runs`` ditch queries on the earlier version, over the
-    whole extent of the database at ``path`` (median, and the first run in this process)."""
+    whole extent of the database at ``path`` (median, and the first run in this process), and of
+    one DEM of difference."""
     db = tdb.open(path)
     seconds, query_seconds = [], []
     for _ in range(runs):
@@ -87,8 +89,13 @@ def diff_seconds(path: Path, *, runs: int = 3) -> dict[str, float]:
         t0 = time.perf_counter()
         ditches = find(db, "before", "ditch")
         query_seconds.append(time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    dod = difference_of_surfaces(db, "before", "after")
+    dod_seconds = time.perf_counter() - t0
     x0, y0, x1, y1 = db.version("before").stats["bounds"]
     return {
+        "dod_seconds": dod_seconds,
+        "dod_nodes": int(np.isfinite(dod.data).sum()),
         "km2": (x1 - x0) * (y1 - y0) / 1e6,
         "seconds": float(np.median(seconds)),
         "first_seconds": seconds[0],

@@ -286,6 +286,12 @@ def changes_section(out: list[str]) -> None:
                 f"{mo['ditches']} ditches (target ≤ 0.5 s per km²).",
                 "",
             ]
+        if "dod_seconds" in mo:
+            out += [
+                f"DEM of difference (`tdb diff --dod`) over the same area: {mo['dod_nodes']:,} nodes of 0.5 m "
+                f"in {mo['dod_seconds']:.2f} s (no target).",
+                "",
+            ]
 
 
 def main() -> None:
