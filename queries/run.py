@@ -93,7 +93,8 @@ def _by_stretch(db: Database, q: Query, matches: list[Match]) -> list[dict[str, 
     name = "depth" if flt.measure == "depth" else "height"
     x0, y0, x1, y1 = shapely.total_bounds([m.geometry for m in matches])
     grow = SIDE[1] + matches[0].level
-    x, y, z, _ = db.points(q.version, level=matches[0].level, bbox=(x0 - grow, y0 - grow, x1 + grow, y1 + grow))
+    box = (x0 - grow, y0 - grow, x1 + grow, y1 + grow)
+    x, y, z, _ = db.points(q.version, level=matches[0].level, bbox=box, ordered=False)
     by_piece = Query(q.what, q.version, conditions=[c for c in q.conditions if c.attribute in ("width", name)])
     out = []
     for m in matches:
