@@ -57,6 +57,9 @@ def fit_profile(
     at signed ``offset`` (m) from the line; the width less ``blur`` in quadrature, the height over
     ``DEPTH_SHARE`` (where ``blur`` is not zero)."""
     top = float(np.clip(np.percentile(relief, 95), 0.05, 4.9))
+    # one start per shape: half the width at half the height, where the samples say
+    half = np.abs(offset[relief > top / 2])
+    h0 = float(np.clip(2 * np.median(half) if len(half) else 1.0, 0.3, 3.5))
     best: tuple[float, float, float] | None = None
     for p in SHAPES:
 
@@ -64,12 +67,23 @@ def fit_profile(
             d, h, c = t
             return d * np.clip(1 - (np.abs(offset - c) / h) ** p, 0, None) - relief
 
-        for h0 in (0.75, 1.5):
-            fit = least_squares(
-                residual, [top, h0, 0.0], bounds=([0, 0.2, -1.0], [5, 4, 1.0]), loss="soft_l1", f_scale=0.1
-            )
-            if best is None or fit.cost < best[0]:
-                best = (float(fit.cost), float(fit.x[0]), float(2 * fit.x[1]))
+        def jacobian(t: NDArray[np.float64], p: float = p) -> NDArray[np.float64]:
+            d, h, c = t
+            u = np.abs(offset - c) / h
+            inside = u < 1
+            slope = np.where(inside, d * p * u ** (p - 1) / h, 0.0)  # −∂r/∂u · 1/h
+            return np.column_stack([np.where(inside, 1 - u**p, 0.0), slope * u, slope * np.sign(offset - c)])
+
+        fit = least_squares(
+            residual,
+            [top, h0, 0.0],
+            jac=jacobian,
+            bounds=([0, 0.2, -1.0], [5, 4, 1.0]),
+            loss="soft_l1",
+            f_scale=0.1,
+        )
+        if best is None or fit.cost < best[0]:
+            best = (float(fit.cost), float(fit.x[0]), float(2 * fit.x[1]))
     assert best is not None
     height = best[1] / DEPTH_SHARE if blur else best[1]
     return height, float(np.sqrt(max(best[2] ** 2 - blur**2, 0.0)))
