@@ -8,7 +8,8 @@ node within ``SIDE[1]`` m of a piece gives one sample of the cross-section: its 
 offset from the line and its depth below the plane fitted to the nodes ``SIDE`` m off
 (height above it for ridges). A profile ``D · (1 − |(s − c) / h|^p)`` for p in 1 (a V),
 2 and 4 (a flat-bottomed U) is fitted robustly to the samples within ``BAND`` m; the
-best fit gives the depth D and the width 2h.
+best fit gives the depth D and the width 2h. One piece's fit scatters (by about ±0.15 m in
+width), so each piece reports the median of its own and its neighbours' on the same part.
 
 The stored surface is a blurred picture of the ground (0.5 m posts from points about
 0.5 m apart): a narrow form reads wider than it is, and by the same amount in quadrature
@@ -38,6 +39,7 @@ BLUR = 0.77  # m, added in quadrature to a width by the stored surface (see the 
 DEPTH_SHARE = 0.934  # of a form's depth (height) that the fit reads through the blur
 SHAPES = (1.0, 2.0, 4.0)  # profile exponents: V, rounded, flat-bottomed
 MIN_SAMPLES = 10
+NEIGHBOURS = 1  # pieces either side whose fits a piece's depth and width are the median of
 
 
 @dataclass(frozen=True)
@@ -125,12 +127,28 @@ def stretches(
             fitted = part.length >= MIN_PART and isinstance(piece, shapely.LineString) and piece.length > 0
             d, w = _cross_section(piece, points, tree, x, y, z, sign) if fitted else (np.nan, np.nan)
             out.append(Stretch(piece, k, d, w))
+    out = _steady(out)
     measured = [s for s in out if np.isfinite(s.width)]
     if measured and len(measured) < len(out):
         weight = np.array([s.line.length for s in measured])
         d = weighted_median(np.array([s.measure for s in measured]), weight)
         w = weighted_median(np.array([s.width for s in measured]), weight)
         out = [s if np.isfinite(s.width) else Stretch(s.line, s.part, d, w) for s in out]
+    return out
+
+
+def _steady(pieces: list[Stretch], *, reach: int = NEIGHBOURS) -> list[Stretch]:
+    """Each measured piece's depth and width as the median over it and the measured pieces up to
+    ``reach`` either side on the same part: one piece's fit scatters, a ditch's section does not
+    jump from one 20 m piece to the next (junctions, where it does, end the parts)."""
+    out = []
+    for i, s in enumerate(pieces):
+        near = [t for t in pieces[max(i - reach, 0) : i + reach + 1] if t.part == s.part and np.isfinite(t.width)]
+        if not np.isfinite(s.width) or not near:
+            out.append(s)
+            continue
+        measure = float(np.median([t.measure for t in near]))
+        out.append(Stretch(s.line, s.part, measure, float(np.median([t.width for t in near]))))
     return out
 
 
