@@ -8,7 +8,8 @@ node within ``SIDE[1]`` m of a piece gives one sample of the cross-section: its 
 offset from the line and its depth below the plane fitted to the nodes ``SIDE`` m off
 (height above it for ridges). A profile ``D · (1 − |(s − c) / h|^p)`` for p in 1 (a V),
 2 and 4 (a flat-bottomed U) is fitted robustly to the samples within ``BAND`` m; the
-best fit gives the depth D and the width 2h. One piece's fit scatters (by about ±0.15 m in
+best fit gives the depth D and the width 2h, up to 2 × ``BAND`` (a wider form reads that wide:
+its banks lie beyond the samples). One piece's fit scatters (by about ±0.15 m in
 width), so each piece reports the median of its own and its neighbours' on the same part.
 
 The stored surface is a blurred picture of the ground (0.5 m posts from points about
@@ -33,7 +34,7 @@ from scipy.optimize import least_squares
 
 PIECE = 20.0  # m of line per cross-section fit
 MIN_PART = 8.0  # m: a shorter part (a junction's stub) takes its match's width and depth
-BAND = 3.0  # m either side of the line whose nodes sample the form
+BAND = 3.0  # m either side of the line whose nodes sample the form; widths are read up to twice this
 SIDE = (3.5, 6.0)  # m off the line: the terrain beside, as a plane
 BLUR = 0.77  # m, added in quadrature to a width by the stored surface (see the module)
 DEPTH_SHARE = 0.934  # of a form's depth (height) that the fit reads through the blur
@@ -88,7 +89,8 @@ def fit_profile(
             best = (float(fit.cost), float(fit.x[0]), float(2 * fit.x[1]))
     assert best is not None
     height = best[1] / DEPTH_SHARE if blur else best[1]
-    return height, float(np.sqrt(max(best[2] ** 2 - blur**2, 0.0)))
+    # the samples reach BAND either side: a wider fit only says the banks lie beyond them
+    return height, float(min(np.sqrt(max(best[2] ** 2 - blur**2, 0.0)), 2 * BAND))
 
 
 def smooth_line(line: shapely.LineString, *, window: float = 2.0, step: float = 0.5) -> shapely.LineString:

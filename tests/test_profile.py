@@ -37,6 +37,16 @@ def test_the_fit_recovers_an_unblurred_section(depth, width, shape, shift, seed)
     assert got_width == pytest.approx(width, abs=0.25)
 
 
+@settings(max_examples=60, deadline=None)
+@given(
+    offset=st.lists(st.floats(-3, 3), min_size=3, max_size=40),
+    relief=st.lists(st.floats(-5, 10), min_size=40, max_size=40),
+)
+def test_the_fit_answers_within_its_bounds_for_any_samples(offset, relief):
+    got_depth, got_width = fit_profile(np.array(offset), np.array(relief[: len(offset)]))
+    assert 0 <= got_width <= 6 and 0 <= got_depth <= 6
+
+
 def test_blur_comes_off_in_quadrature():
     offset = np.linspace(-3, 3, 400)
     relief = 0.8 * np.clip(1 - np.abs(offset) / 1.5, 0, None)  # 3 m wide V
