@@ -65,15 +65,16 @@ def test_smoothing_keeps_a_straight_line_and_its_length():
 
 @pytest.fixture(scope="module")
 def two_ditches(tmp_path_factory):
-    """A bare scene with a narrow (1.1 m) and a wide (3 m) ditch, both 0.9 m deep."""
+    """A bare scene with a narrow (1.1 m) and a wide (3 m) ditch, both 0.9 m deep, and a 4.5 m wide ridge."""
     base = make_scene(seed=5, size=120)
     x0, y0 = base.bounds[:2]
     narrow = Feature("ditch", shapely.LineString([(x0 + 20, y0 + 35), (x0 + 100, y0 + 40)]), 0.9, 1.1, "U", 0)
     wide = Feature("ditch", shapely.LineString([(x0 + 20, y0 + 85), (x0 + 100, y0 + 80)]), 0.9, 3.0, "U", 1)
-    scene = replace(base, features=(narrow, wide), buildings=(), trees=())
+    ridge = Feature("ridge", shapely.LineString([(x0 + 20, y0 + 60), (x0 + 100, y0 + 61)]), 1.0, 4.5, "U", 2)
+    scene = replace(base, features=(narrow, wide, ridge), buildings=(), trees=())
     db = tdb.open(tmp_path_factory.mktemp("w") / "w.tdb", create=True)
     ingest(sample(scene, density=4, seed=5), db, version="v")
-    return db, narrow, wide
+    return db, narrow, wide, ridge
 
 
 def _along(features, feature):
@@ -83,7 +84,7 @@ def _along(features, feature):
 
 
 def test_width_queries_part_wide_from_narrow_ditches(two_ditches):
-    db, narrow, wide = two_ditches
+    db, narrow, wide, _ = two_ditches
     assert _along(run(db, "SELECT ditch FROM v"), narrow) > 0.8  # both found without a width
     # Each 20 m stretch is measured on its own, to about ±0.35 m: one stretch of the narrow ditch
     # may read over 1.5 m, most may not.
@@ -102,7 +103,10 @@ def test_width_queries_part_wide_from_narrow_ditches(two_ditches):
 
 
 def test_width_belongs_to_lines(two_ditches):
-    db, _, _ = two_ditches
+    db, _, _, ridge = two_ditches
+    broad = run(db, "SELECT ridge FROM v WHERE width > 3")  # ridges have widths and heights too
+    assert _along(broad, ridge) > 0.7
+    assert all(f["properties"]["height"] == pytest.approx(1.0, abs=0.25) for f in broad)
     with pytest.raises(QueryError, match="no width"):
         run(db, "SELECT pit FROM v WHERE width > 1")
     with pytest.raises(QueryError, match="no attribute 'width'"):
