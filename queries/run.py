@@ -27,10 +27,11 @@ OPS = {
 }
 
 
-def run(db: Database, text: str) -> list[dict[str, Any]]:
-    """Run a query; return GeoJSON Feature dicts in the database's CRS."""
+def run(db: Database, text: str, *, progress: bool = False) -> list[dict[str, Any]]:
+    """Run a query; return GeoJSON Feature dicts in the database's CRS. With ``progress``, a
+    bar on stderr follows the longest step (the cross-sections of a query on ``width``)."""
     q = parse(text)
-    return _order(_select(db, q, text), q)
+    return _order(_select(db, q, text, progress), q)
 
 
 def _order(features: list[dict[str, Any]], q: Query) -> list[dict[str, Any]]:
@@ -44,7 +45,7 @@ def _order(features: list[dict[str, Any]], q: Query) -> list[dict[str, Any]]:
     return features if q.limit is None else features[: q.limit]
 
 
-def _select(db: Database, q: Query, text: str) -> list[dict[str, Any]]:
+def _select(db: Database, q: Query, text: str, progress: bool = False) -> list[dict[str, Any]]:
     db.version(q.version)  # a clear error for an unknown version before any work
     if q.what == "tiles":
         return _tiles(db, q)
@@ -65,7 +66,7 @@ def _select(db: Database, q: Query, text: str) -> list[dict[str, Any]]:
         )
     matches = find(db, q.version, q.what, level=q.level, bbox=q.bbox)
     if "width" in {c.attribute for c in q.conditions} | {q.order_by}:
-        return _by_stretch(db, q, matches)
+        return _by_stretch(db, q, matches, progress=progress)
     out = []
     for m in matches:
         props = {
@@ -82,7 +83,7 @@ def _select(db: Database, q: Query, text: str) -> list[dict[str, Any]]:
     return out
 
 
-def _by_stretch(db: Database, q: Query, matches: list[Match]) -> list[dict[str, Any]]:
+def _by_stretch(db: Database, q: Query, matches: list[Match], *, progress: bool = False) -> list[dict[str, Any]]:
     """Matches cut into stretches with their own cross-section (:mod:`queries.profile`): the
     stretches whose width and depth (height) pass the query, joined where they follow on."""
     flt = resolve(q.what)
@@ -96,8 +97,10 @@ def _by_stretch(db: Database, q: Query, matches: list[Match]) -> list[dict[str, 
     box = (x0 - grow, y0 - grow, x1 + grow, y1 + grow)
     x, y, z, _ = db.points(q.version, level=matches[0].level, bbox=box, ordered=False)
     by_piece = Query(q.what, q.version, conditions=[c for c in q.conditions if c.attribute in ("width", name)])
+    from tqdm import tqdm
+
     out = []
-    for m in matches:
+    for m in tqdm(matches, desc="cross-sections", unit=q.what, disable=not progress, leave=False):
         runs: list[list[Stretch]] = []
         for st in stretches(m.geometry, (x, y, z), measure=flt.measure):
             if not (np.isfinite(st.width) and _keep({"width": st.width, name: st.measure}, by_piece)):

@@ -37,7 +37,7 @@ def command(text: str, db_path: Path, fmt: str, out: Path | None, png: Path | No
     check_output(fmt, out)
     query = parse(text)
     with tdb.open(db_path) as db:
-        features = run(db, text)
+        features = run(db, text, progress=True)
         crs = db.crs(query.version)
         if png:
             from queries.area import overview_surface
