@@ -86,6 +86,8 @@ def _select(db: Database, q: Query, text: str, progress: bool = False) -> list[d
 def _by_stretch(db: Database, q: Query, matches: list[Match], *, progress: bool = False) -> list[dict[str, Any]]:
     """Matches cut into stretches with their own cross-section (:mod:`queries.profile`): the
     stretches whose width and depth (height) pass the query, joined where they follow on."""
+    from tqdm import tqdm
+
     flt = resolve(q.what)
     if not flt.linear or flt.measure == "step":
         raise QueryError(f"{q.what} results have no width: ditch, ridge and wall lines do")
@@ -97,8 +99,6 @@ def _by_stretch(db: Database, q: Query, matches: list[Match], *, progress: bool 
     box = (x0 - grow, y0 - grow, x1 + grow, y1 + grow)
     x, y, z, _ = db.points(q.version, level=matches[0].level, bbox=box, ordered=False)
     by_piece = Query(q.what, q.version, conditions=[c for c in q.conditions if c.attribute in ("width", name)])
-    from tqdm import tqdm
-
     out = []
     for m in tqdm(matches, desc="cross-sections", unit=q.what, disable=not progress, leave=False):
         runs: list[list[Stretch]] = []
@@ -119,6 +119,8 @@ def _by_stretch(db: Database, q: Query, matches: list[Match], *, progress: bool 
                 name: round(weighted_median(np.array([st.measure for st in run_]), weight), 3),
                 "width": round(weighted_median(np.array([st.width for st in run_]), weight), 2),
             }
+            if np.isfinite(m.shoulder):
+                props["shoulder"] = round(m.shoulder, 2)
             if _keep(props, q):
                 geom = shapely.line_merge(shapely.union_all([st.line for st in run_]))
                 out.append({"type": "Feature", "geometry": shapely.geometry.mapping(geom), "properties": props})

@@ -107,6 +107,7 @@ def test_width_belongs_to_lines(two_ditches):
     broad = run(db, "SELECT ridge FROM v WHERE width > 3")  # ridges have widths and heights too
     assert _along(broad, ridge) > 0.7
     assert all(f["properties"]["height"] == pytest.approx(1.0, abs=0.25) for f in broad)
+    assert run(db, "SELECT ridge FROM v WHERE width > 3 AND shoulder >= 0.25") == broad  # the match's shoulder
     with pytest.raises(QueryError, match="no width"):
         run(db, "SELECT pit FROM v WHERE width > 1")
     with pytest.raises(QueryError, match="no attribute 'width'"):
