@@ -70,6 +70,7 @@ class Filter:
     min_elongation: float = 0.0
     min_shoulder: float | None = None  # queries.shoulder: a ridge's flanks stand, a wall's do not
     max_shoulder: float | None = None
+    broad_width: float | None = None  # queries.profile: at least this wide is broad, whatever the shoulder
     around: bool = False  # queries.relief: the extreme stands out all round (mound, pit), not across a line
 
 
@@ -120,6 +121,7 @@ def parse_filter(doc: dict[str, Any]) -> Filter:
         float(doc.get("min_elongation", 0.0)),
         doc.get("min_shoulder"),
         doc.get("max_shoulder"),
+        doc.get("broad_width"),
         bool(doc.get("around", False)),
     )
 

@@ -8,6 +8,7 @@ from numpy.typing import NDArray
 
 from queries.centreline import centrelines, elongation
 from queries.filters import BREAK_LINES, FEATURES, Filter, Match, builtin_filters, components, tile_lines
+from queries.profile import form_width
 from queries.relief import NodeLattice, node_lattice, tile_relief
 from queries.shoulder import shoulders
 from tdb.database import Database
@@ -16,6 +17,24 @@ from tdb.errors import FilterError
 REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
 LINK_TILES = 3.0  # extreme nodes of touching tiles lie at most 2√2 tiles apart
 TILE_SHARE = 0.5  # a tile joins an object when its own relief reaches this share of min_measure
+
+
+def _broad(
+    lattice: NodeLattice, geoms: list[shapely.Geometry], shoulder: NDArray[np.float64], flt: Filter
+) -> NDArray[np.bool_]:
+    """Per match, whether a shoulder that reads narrow is overruled by cross-sections at least
+    ``flt.broad_width`` wide. Only those matches are measured: the fits cost time."""
+    broad = np.zeros(len(geoms), bool)
+    bound = flt.min_shoulder if flt.min_shoulder is not None else flt.max_shoulder
+    if flt.broad_width is None or bound is None:
+        return broad
+    with np.errstate(invalid="ignore"):
+        narrow = np.flatnonzero(shoulder <= bound)
+    if len(narrow):
+        nodes = lattice.points()
+        for k in narrow:
+            broad[k] = form_width(geoms[k], nodes, measure=flt.measure) >= flt.broad_width
+    return broad
 
 
 def resolve(name_or_filter: str | Filter) -> Filter:
@@ -112,13 +131,14 @@ def match_tiles(
     shoulder = np.full(len(found), np.nan)
     if flt.linear and flt.measure != "step" and (flt.min_shoulder is not None or flt.max_shoulder is not None):
         shoulder = shoulders(lattice, geoms, np.array([m for _, m in found]), measure=flt.measure)
+    broad = _broad(lattice, geoms, shoulder, flt)
     out = []
-    for (g, measure), geom, sh in zip(found, geoms, shoulder):
+    for (g, measure), geom, sh, wide in zip(found, geoms, shoulder, broad):
         # an unmeasured shoulder passes a least one and fails a largest one: a form is a ridge
         # (or a ditch) unless it is shown to be narrow
-        if flt.min_shoulder is not None and sh < flt.min_shoulder:
+        if flt.min_shoulder is not None and sh < flt.min_shoulder and not wide:
             continue
-        if flt.max_shoulder is not None and not sh <= flt.max_shoulder:
+        if flt.max_shoulder is not None and (not sh <= flt.max_shoulder or wide):
             continue
         if flt.linear:
             if geom.is_empty:  # no extreme line: follow the break lines

@@ -139,6 +139,19 @@ def stretches(
     return out
 
 
+def form_width(
+    line: shapely.Geometry,
+    nodes: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    *,
+    measure: str = "height",
+) -> float:
+    """Length-weighted median width (m) of a match's stretches; NaN where none could be fitted."""
+    measured = [s for s in stretches(line, nodes, measure=measure) if np.isfinite(s.width)]
+    if not measured:
+        return float("nan")
+    return weighted_median(np.array([s.width for s in measured]), np.array([s.line.length for s in measured]))
+
+
 def _steady(pieces: list[Stretch], *, reach: int = NEIGHBOURS) -> list[Stretch]:
     """Each measured piece's depth and width as the median over it and the measured pieces up to
     ``reach`` either side on the same part: one piece's fit scatters, a ditch's section does not

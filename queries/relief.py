@@ -35,6 +35,12 @@ class NodeLattice:
     j0: int
     spacing: float
 
+    def points(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """x, y, z of every stored node."""
+        jj, ii = np.nonzero(~np.isnan(self.z))
+        x = ((self.i0 + ii) * self.spacing).astype(np.float64)
+        return x, ((self.j0 + jj) * self.spacing).astype(np.float64), self.z[jj, ii]
+
     def at(self, i: NDArray[np.int64], j: NDArray[np.int64]) -> NDArray[np.float64]:
         i, j = np.broadcast_arrays(i, j)
         rows, cols = self.z.shape

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -112,3 +113,27 @@ def test_width_belongs_to_lines(two_ditches):
         run(db, "SELECT pit FROM v WHERE width > 1")
     with pytest.raises(QueryError, match="no attribute 'width'"):
         run(db, "SELECT tiles FROM v WHERE width > 1")
+
+
+def test_broad_cross_sections_overrule_a_narrow_shoulder(two_ditches):
+    import json
+
+    from queries.filters import builtin_filters, parse_filter
+    from queries.match import find
+
+    db, _, _, ridge = two_ditches
+    assert builtin_filters()["ridge"].broad_width == builtin_filters()["wall"].broad_width == 2.6
+    base = json.loads((Path(__file__).parents[1] / "queries" / "filters" / "ridge.json").read_text())
+
+    def on_ridge(**bounds):
+        d = {k: v for k, v in base.items() if k not in ("min_shoulder", "max_shoulder", "broad_width")}
+        found = find(db, "v", parse_filter({**d, "name": "probe", **bounds}))
+        lines = shapely.union_all([m.geometry for m in found])
+        return ridge.geometry.intersection(lines.buffer(2.0)).length / ridge.geometry.length
+
+    # Shoulder bounds no form can meet: every match reads narrow (for min) or narrow enough (for max).
+    assert on_ridge(min_shoulder=9.0) < 0.2
+    assert on_ridge(min_shoulder=9.0, broad_width=2.5) > 0.7  # 4.5 m wide: broad all the same
+    assert on_ridge(min_shoulder=9.0, broad_width=9.0) < 0.2
+    assert on_ridge(max_shoulder=9.0) > 0.7
+    assert on_ridge(max_shoulder=9.0, broad_width=2.5) < 0.2  # too wide for a wall
