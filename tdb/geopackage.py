@@ -12,6 +12,7 @@ from __future__ import annotations
 import datetime as dt
 import os
 import re
+import shutil
 import sqlite3
 import struct
 import tempfile
@@ -45,12 +46,16 @@ _BASE_SRS = [  # the three rows every GeoPackage must hold (spec 1.1.2.1.2)
 
 
 def write_geopackage(
-    path: str | os.PathLike[str], layers: Mapping[str, Sequence[dict[str, Any]]], *, crs: Any
+    path: str | os.PathLike[str],
+    layers: Mapping[str, Sequence[dict[str, Any]]],
+    *,
+    crs: Any,
+    append: bool = False,
 ) -> None:
     """Write GeoJSON-like features to ``path`` as a GeoPackage, one table per layer.
 
     The file is written beside ``path`` and moved into place at the end, so an
-    existing file is replaced whole or left as it was.
+    existing file is replaced whole (or, with ``append``, extended) or left as it was.
 
     Parameters
     ----------
@@ -58,23 +63,34 @@ def write_geopackage(
     layers : layer name → features (dicts with ``geometry`` as a GeoJSON mapping and
         ``properties``). Names are letters, digits and underscores.
     crs : a pyproj CRS (or None: undefined Cartesian coordinates).
+    append : add the layers to an existing GeoPackage (a layer of the same name is replaced)
+        instead of writing a new file.
 
     Raises
     ------
     InputError
-        If a layer or attribute name is not a plain identifier.
+        If a layer or attribute name is not a plain identifier, or ``append`` names a file
+        that is not a GeoPackage.
     """
     for name in layers:
         _check_name(name, "layer")
     target = Path(path)
+    extend = append and target.exists()
+    if extend and not is_geopackage(target):
+        raise InputError(f"{target}: not a GeoPackage; cannot add layers to it")
     fd, tmp = tempfile.mkstemp(suffix=".gpkg", dir=target.parent)
     os.close(fd)
     try:
+        if extend:
+            shutil.copyfile(target, tmp)
         con = sqlite3.connect(tmp)
         try:
             with con:
-                srs_id = _init(con, crs)
+                if not extend:
+                    _create(con)
+                srs_id = _srs(con, crs)
                 for name, features in layers.items():
+                    _drop_layer(con, name)
                     _write_layer(con, name, features, srs_id)
         finally:
             con.close()
@@ -84,12 +100,32 @@ def write_geopackage(
         raise
 
 
+def is_geopackage(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is an SQLite file with GeoPackage contents."""
+    try:
+        con = sqlite3.connect(f"file:{Path(path).resolve()}?mode=ro", uri=True)
+        try:
+            return con.execute("SELECT 1 FROM sqlite_master WHERE name = 'gpkg_contents'").fetchone() is not None
+        finally:
+            con.close()
+    except sqlite3.DatabaseError:
+        return False
+
+
+def _drop_layer(con: sqlite3.Connection, name: str) -> None:
+    known = con.execute("SELECT 1 FROM gpkg_contents WHERE table_name = ?", (name,)).fetchone()
+    if known:
+        con.execute("DELETE FROM gpkg_geometry_columns WHERE table_name = ?", (name,))
+        con.execute("DELETE FROM gpkg_contents WHERE table_name = ?", (name,))
+        con.execute(f'DROP TABLE IF EXISTS "{name}"')
+
+
 def _check_name(name: str, what: str) -> None:
     if not NAME.fullmatch(name):
         raise InputError(f"GeoPackage {what} name {name!r} must be letters, digits and underscores")
 
 
-def _init(con: sqlite3.Connection, crs: Any) -> int:
+def _create(con: sqlite3.Connection) -> None:
     con.execute(f"PRAGMA application_id = {APPLICATION_ID}")
     con.execute(f"PRAGMA user_version = {USER_VERSION}")
     con.execute(
@@ -111,15 +147,28 @@ def _init(con: sqlite3.Connection, crs: Any) -> int:
         " CONSTRAINT fk_gc_srs FOREIGN KEY (srs_id) REFERENCES gpkg_spatial_ref_sys (srs_id))"
     )
     con.executemany("INSERT INTO gpkg_spatial_ref_sys VALUES (?, ?, ?, ?, ?, ?)", _BASE_SRS)
+
+
+def _srs(con: sqlite3.Connection, crs: Any) -> int:
+    """The srs_id of ``crs``, its row added where the file lacks it."""
     if crs is None:
         return UNDEFINED_CARTESIAN
     epsg = crs.to_epsg()
-    srs_id = int(epsg) if epsg else CUSTOM_SRS
-    if srs_id != 4326:
-        con.execute(
-            "INSERT INTO gpkg_spatial_ref_sys VALUES (?, ?, ?, ?, ?, ?)",
-            (crs.name, srs_id, "EPSG" if epsg else "NONE", srs_id, crs.to_wkt("WKT1_GDAL"), ""),
-        )
+    if epsg:
+        srs_id = int(epsg)
+    else:  # the same custom CRS again reuses its row; another one gets the next free id
+        wkt = crs.to_wkt("WKT1_GDAL")
+        row = con.execute("SELECT srs_id FROM gpkg_spatial_ref_sys WHERE definition = ?", (wkt,)).fetchone()
+        if row:
+            return int(row[0])
+        (top,) = con.execute(
+            "SELECT MAX(srs_id) FROM gpkg_spatial_ref_sys WHERE srs_id >= ?", (CUSTOM_SRS,)
+        ).fetchone()
+        srs_id = CUSTOM_SRS if top is None else int(top) + 1
+    con.execute(
+        "INSERT OR IGNORE INTO gpkg_spatial_ref_sys VALUES (?, ?, ?, ?, ?, ?)",
+        (crs.name, srs_id, "EPSG" if epsg else "NONE", srs_id, crs.to_wkt("WKT1_GDAL"), ""),
+    )
     return srs_id
 
 

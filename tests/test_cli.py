@@ -117,6 +117,7 @@ def _query_formats(runner, db, tmp_path):
     """The same tiles as GeoJSON on stdout and as a GeoPackage that GDAL reads, in the survey's CRS."""
     import json
 
+    import pyogrio
     import pyogrio.raw
     from pyproj import CRS
 
@@ -134,6 +135,12 @@ def _query_formats(runner, db, tmp_path):
     assert len(geometry) == len(doc["features"]) == 100
     categories = dict(zip(meta["fields"], fields))["category"]
     assert list(categories) == [f["properties"]["category"] for f in doc["features"]]
+    more = ["query", "SELECT ditch FROM v1", "--db", str(db), "--format", "gpkg", "--out", str(gpkg)]
+    r = runner.invoke(main, [*more, "--layer", "ditches", "--append"])
+    assert r.exit_code == 0, r.output
+    assert {name for name, _ in pyogrio.list_layers(gpkg)} == {"tiles", "ditches"}
+    r = runner.invoke(main, ["query", text, "--db", str(db), "--layer", "x"])
+    assert r.exit_code != 0 and "belong to --format gpkg" in r.output
     # The same results drawn over the hillshade of the box.
     png = tmp_path / "tiles.png"
     r = runner.invoke(main, ["query", text, "--db", str(db), "--png", str(png), "--out", str(tmp_path / "t.json")])

@@ -100,6 +100,28 @@ def test_single_and_multi_parts_make_one_multi_layer(tmp_path):
     assert first.geom_type == "MultiLineString" and first.equals(shapely.geometry.shape(FEATURES[0]["geometry"]))
 
 
+def test_append_adds_and_replaces_layers(tmp_path):
+    path = tmp_path / "a.gpkg"
+    write_geopackage(path, {"ditch": FEATURES[:2]}, crs=CRS.from_epsg(25832), append=True)  # new file
+    write_geopackage(path, {"pit": FEATURES[2:]}, crs=CRS.from_epsg(25832), append=True)
+    assert {name for name, _ in pyogrio.list_layers(path)} == {"ditch", "pit"}
+    write_geopackage(path, {"ditch": FEATURES[:1]}, crs=CRS.from_epsg(25832), append=True)
+    assert pyogrio.read_info(path, layer="ditch")["features"] == 1  # replaced, not doubled
+    assert pyogrio.read_info(path, layer="pit")["features"] == 1
+    local = CRS.from_proj4("+proj=tmerc +lon_0=9.5 +x_0=200000 +ellps=GRS80 +units=m")
+    write_geopackage(path, {"local": FEATURES[:1]}, crs=local, append=True)
+    write_geopackage(path, {"local2": FEATURES[:1]}, crs=local, append=True)  # same CRS, same row
+    con = sqlite3.connect(path)
+    custom = con.execute("SELECT COUNT(*) FROM gpkg_spatial_ref_sys WHERE srs_id >= ?", (CUSTOM_SRS,)).fetchone()
+    assert custom[0] == 1
+    con.close()
+    other = tmp_path / "not.gpkg"
+    other.write_text("a text file")
+    with pytest.raises(InputError, match="not a GeoPackage"):
+        write_geopackage(other, {"ditch": FEATURES}, crs=None, append=True)
+    assert other.read_text() == "a text file"
+
+
 def test_crs_without_epsg_code_and_no_crs(tmp_path):
     local = CRS.from_proj4("+proj=tmerc +lat_0=0 +lon_0=9.5 +k=1 +x_0=200000 +y_0=0 +ellps=GRS80 +units=m")
     write_geopackage(tmp_path / "a.gpkg", {"x": FEATURES}, crs=local)

@@ -35,6 +35,8 @@ def command(
     bbox: tuple[float, float, float, float] | None,
     fmt: str,
     out: Path | None,
+    layer: str | None,
+    append: bool,
     png: Path | None,
     dod: Path | None,
 ) -> None:
@@ -53,7 +55,7 @@ def command(
     from queries.changes import detect, level_of_detection
     from queries.dod import describe, difference_of_surfaces
 
-    check_output(fmt, out)
+    check_output(fmt, out, layer=layer, append=append)
     with tdb.open(db_path) as db:
         found = detect(db, before, after, level=int(level), bbox=bbox)
         crs = db.crs(after)
@@ -66,7 +68,7 @@ def command(
             )
         else:
             grid = None
-    emit(found, fmt=fmt, crs=crs, out=out, layer="changes", noun="changed region(s)")
+    emit(found, fmt=fmt, crs=crs, out=out, layer=layer or "changes", noun="changed region(s)", append=append)
     if dod and grid is not None:
         from tdb.geotiff import write_geotiff
 

@@ -17,7 +17,12 @@ F = Callable[..., Any]
 
 
 def output_options(func: F) -> F:
-    """``--format`` and ``--out`` for commands that return features."""
+    """``--format``, ``--out``, and for GeoPackages ``--layer`` and ``--append``, for commands that
+    return features."""
+    func = click.option(
+        "--append", is_flag=True, help="gpkg: add the layer to an existing GeoPackage (same name: replaced)."
+    )(func)
+    func = click.option("--layer", help="gpkg: the layer's name (default: what was selected).")(func)
     func = click.option(
         "--out", type=click.Path(path_type=Path), help="Write here instead of standard output (needed for gpkg)."
     )(func)
@@ -31,20 +36,34 @@ def output_options(func: F) -> F:
     )(func)
 
 
-def check_output(fmt: str, out: Path | None) -> None:
-    """Refuse a GeoPackage without a file before any work is done."""
-    if parse(OutputFormat, fmt) is OutputFormat.GPKG and out is None:
+def check_output(fmt: str, out: Path | None, *, layer: str | None = None, append: bool = False) -> None:
+    """Refuse what cannot be written before any work is done."""
+    gpkg = parse(OutputFormat, fmt) is OutputFormat.GPKG
+    if gpkg and out is None:
         raise click.UsageError("--format gpkg writes a file: give --out FILE.gpkg")
+    if not gpkg and (layer is not None or append):
+        raise click.UsageError("--layer and --append belong to --format gpkg")
 
 
-def emit(features: list[dict[str, Any]], *, fmt: str, crs: Any, out: Path | None, layer: str, noun: str) -> None:
+def emit(
+    features: list[dict[str, Any]],
+    *,
+    fmt: str,
+    crs: Any,
+    out: Path | None,
+    layer: str,
+    noun: str,
+    append: bool = False,
+) -> None:
     """Write ``features`` in ``fmt`` to ``out`` (or stdout) and say on stderr what went where."""
     kind = parse(OutputFormat, fmt)
     if kind is OutputFormat.GPKG:
         from tdb.geopackage import write_geopackage
 
         assert out is not None  # check_output ran first
-        write_geopackage(out, {layer: features}, crs=crs)
+        write_geopackage(out, {layer: features}, crs=crs, append=append)
+        click.echo(f"{len(features)} {noun} → {out}, layer {layer}", err=True)
+        return
     else:
         body = render(features, kind, crs)
         if out is None:

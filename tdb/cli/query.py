@@ -15,7 +15,9 @@ from tdb.cli.output import check_output, emit, output_options
 @click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
 @output_options
 @click.option("--png", type=click.Path(path_type=Path), help="Also draw the results over a hillshade.")
-def command(text: str, db_path: Path, fmt: str, out: Path | None, png: Path | None) -> None:
+def command(
+    text: str, db_path: Path, fmt: str, out: Path | None, layer: str | None, append: bool, png: Path | None
+) -> None:
     """Run a query (see docs/query-language.md). GeoJSON goes to stdout by default, in the
     database's CRS.
 
@@ -26,6 +28,7 @@ def command(text: str, db_path: Path, fmt: str, out: Path | None, png: Path | No
       tdb query 'SELECT wall FROM v1 WHERE length > 15' --db a.tdb --format table
       tdb query 'SELECT tiles FROM v1 WHERE category IN (10, 16)' --db a.tdb --format csv --out valleys.csv
       tdb query 'SELECT ditch FROM v1 WHERE depth > 0.5' --db a.tdb --format gpkg --out ditches.gpkg
+      tdb query 'SELECT ridge FROM v1' --db a.tdb --format gpkg --out ditches.gpkg --append  # 2nd layer
       tdb query 'SELECT ridge FROM v1' --db a.tdb --out ridges.geojson --png ridges.png
       tdb query 'SELECT ditch FROM v1 WHERE depth >= 0.5 ORDER BY length DESC LIMIT 10' --db a.tdb
       tdb query "SELECT changes FROM v1 TO v2 WHERE kind = 'ditch dug'" --db a.tdb --format table
@@ -34,7 +37,7 @@ def command(text: str, db_path: Path, fmt: str, out: Path | None, png: Path | No
     from queries.language import parse
     from queries.run import run
 
-    check_output(fmt, out)
+    check_output(fmt, out, layer=layer, append=append)
     query = parse(text)
     with tdb.open(db_path) as db:
         features = run(db, text, progress=True)
@@ -47,7 +50,7 @@ def command(text: str, db_path: Path, fmt: str, out: Path | None, png: Path | No
             box = query.bbox or _extent(features, margin=20.0) or tuple(db.version(query.version).stats["bounds"])
             surface = overview_surface(db, query.version, box, level=level)
             feature_map(png, features, surface, title=f"{query.what} in {query.version}")
-    emit(features, fmt=fmt, crs=crs, out=out, layer=query.what, noun="result(s)")
+    emit(features, fmt=fmt, crs=crs, out=out, layer=layer or query.what, noun="result(s)", append=append)
     if png:
         click.echo(f"map → {png}", err=True)
 
