@@ -223,6 +223,16 @@ def _grow(
     return out, np.concatenate(parts)[row[out]]
 
 
+def shared_tiles(
+    db: Database, before: str, after: str, *, level: int, bbox: tuple[float, float, float, float] | None
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8], NDArray[np.uint8]]:
+    """(xg, yg) of the tiles both versions hold at ``level`` in ``bbox``, and each one's code in either."""
+    xa, ya, ca = db.tiles(before, level=level, bbox=bbox, ordered=False)
+    xb, yb, cb = db.tiles(after, level=level, bbox=bbox, ordered=False)
+    _, ia, ib = np.intersect1d(tile_key(xa, ya), tile_key(xb, yb), return_indices=True)
+    return xa[ia], ya[ia], ca[ia], cb[ib]
+
+
 def detect(
     db: Database,
     before: str,
@@ -233,12 +243,9 @@ def detect(
     min_tiles: int = 8,
 ) -> list[dict[str, Any]]:
     """Changed regions between ``before`` and ``after`` as GeoJSON feature dicts."""
-    xa, ya, ca = db.tiles(before, level=level, bbox=bbox, ordered=False)
-    xb, yb, cb = db.tiles(after, level=level, bbox=bbox, ordered=False)
-    _, ia, ib = np.intersect1d(tile_key(xa, ya), tile_key(xb, yb), return_indices=True)
-    if len(ia) == 0:
+    xg, yg, c1, c2 = shared_tiles(db, before, after, level=level, bbox=bbox)
+    if len(xg) == 0:
         return []
-    xg, yg, c1, c2 = xa[ia], ya[ia], ca[ia], cb[ib]
     valid = (c1 != NO_DATA) & (c2 != NO_DATA)
     # Only tiles whose category differs can start a change: the surfaces are rebuilt around them alone.
     differ = np.flatnonzero((c1 != c2) & valid)

@@ -16,7 +16,7 @@ import numpy as np
 
 from ingest.ground.fill import fill_lines_stack
 from ingest.ground.grids import MAX_CELLS
-from ingest.tiles import tile_key
+from queries.changes import shared_tiles
 from queries.relief import SUBGRID, node_lattice
 from tdb.categories import NO_DATA
 from tdb.database import Database
@@ -45,11 +45,9 @@ def difference_of_surfaces(
     InputError
         If the versions share no tiles there, or the grid would exceed ``max_cells``.
     """
-    xa, ya, ca = db.tiles(before, level=level, bbox=bbox, ordered=False)
-    xb, yb, cb = db.tiles(after, level=level, bbox=bbox, ordered=False)
-    _, ia, ib = np.intersect1d(tile_key(xa, ya), tile_key(xb, yb), return_indices=True)
-    held = (ca[ia] != NO_DATA) & (cb[ib] != NO_DATA)
-    xg, yg = xa[ia][held], ya[ia][held]
+    xg, yg, ca, cb = shared_tiles(db, before, after, level=level, bbox=bbox)
+    held = (ca != NO_DATA) & (cb != NO_DATA)
+    xg, yg = xg[held], yg[held]
     if len(xg) == 0:
         raise InputError(f"versions {before!r} and {after!r} share no tiles at level {level} there")
     s = level / (SUBGRID - 1)
@@ -87,13 +85,8 @@ def _surface(db: Database, version: str, level: int, xg: Any, yg: Any, box: Box)
     return fill_lines_stack(nodes, passes=2).reshape(nodes.shape)
 
 
-def describe(dod: Raster, *, lod: float) -> dict[str, Any]:
-    """Summary of a difference grid: cells with data, and the shares lowered and raised beyond ``lod``."""
+def describe(dod: Raster, *, lod: float) -> dict[str, float]:
+    """Shares of a difference grid's cells lowered and raised beyond ``lod``."""
     v = dod.data[np.isfinite(dod.data)]
     n = max(len(v), 1)
-    return {
-        "cells": len(v),
-        "lowered_share": float((v <= -lod).sum() / n),
-        "raised_share": float((v >= lod).sum() / n),
-        "median_dz": float(np.median(v)) if len(v) else float("nan"),
-    }
+    return {"lowered_share": float((v <= -lod).sum() / n), "raised_share": float((v >= lod).sum() / n)}

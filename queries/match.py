@@ -8,7 +8,7 @@ from numpy.typing import NDArray
 
 from queries.centreline import centrelines, elongation
 from queries.filters import BREAK_LINES, FEATURES, Filter, Match, builtin_filters, components, tile_lines
-from queries.profile import form_width
+from queries.profile import Nodes, form_width
 from queries.relief import NodeLattice, node_lattice, tile_relief
 from queries.shoulder import shoulders
 from tdb.database import Database
@@ -31,7 +31,7 @@ def _broad(
     with np.errstate(invalid="ignore"):
         narrow = np.flatnonzero(shoulder <= bound)
     if len(narrow):
-        nodes = lattice.points()
+        nodes = Nodes.of(*lattice.points())
         for k in narrow:
             broad[k] = form_width(geoms[k], nodes, measure=flt.measure) >= flt.broad_width
     return broad

@@ -53,6 +53,22 @@ class Stretch:
     width: float  # m
 
 
+@dataclass(frozen=True)
+class Nodes:
+    """Stored nodes with their spatial index, built once for all the lines measured among them."""
+
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    z: NDArray[np.float64]
+    points: NDArray[np.object_]
+    tree: shapely.STRtree
+
+    @classmethod
+    def of(cls, x: NDArray[np.float64], y: NDArray[np.float64], z: NDArray[np.float64]) -> Nodes:
+        points = shapely.points(x, y)
+        return cls(x, y, z, points, shapely.STRtree(points))
+
+
 def fit_profile(
     offset: NDArray[np.float64], relief: NDArray[np.float64], *, blur: float = BLUR
 ) -> tuple[float, float]:
@@ -105,18 +121,10 @@ def smooth_line(line: shapely.LineString, *, window: float = 2.0, step: float = 
     return shapely.LineString(np.column_stack([np.convolve(pad[:, i], kernel, "valid") for i in (0, 1)]))
 
 
-def stretches(
-    line: shapely.Geometry,
-    nodes: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
-    *,
-    measure: str = "depth",
-) -> list[Stretch]:
+def stretches(line: shapely.Geometry, nodes: Nodes, *, measure: str = "depth") -> list[Stretch]:
     """The stretches of one match's centre line (Multi)LineString with their cross-sections,
-    from the stored ``nodes`` (x, y, z) around it. Pieces too short or too sparse to fit take
-    the length-weighted median of the match's measured ones."""
-    x, y, z = nodes
-    points = shapely.points(x, y)
-    tree = shapely.STRtree(points)
+    from the stored ``nodes`` around it. Pieces too short or too sparse to fit take the
+    length-weighted median of the match's measured ones."""
     sign = 1.0 if measure == "depth" else -1.0
     out: list[Stretch] = []
     for k, part in enumerate(getattr(line, "geoms", [line])):
@@ -127,7 +135,7 @@ def stretches(
         for i in range(count):
             piece = shapely.ops.substring(smooth, i * smooth.length / count, (i + 1) * smooth.length / count)
             fitted = part.length >= MIN_PART and isinstance(piece, shapely.LineString) and piece.length > 0
-            d, w = _cross_section(piece, points, tree, x, y, z, sign) if fitted else (np.nan, np.nan)
+            d, w = _cross_section(piece, nodes, sign) if fitted else (np.nan, np.nan)
             out.append(Stretch(piece, k, d, w))
     out = _steady(out)
     measured = [s for s in out if np.isfinite(s.width)]
@@ -139,12 +147,7 @@ def stretches(
     return out
 
 
-def form_width(
-    line: shapely.Geometry,
-    nodes: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
-    *,
-    measure: str = "height",
-) -> float:
+def form_width(line: shapely.Geometry, nodes: Nodes, *, measure: str = "height") -> float:
     """Length-weighted median width (m) of a match's stretches; NaN where none could be fitted."""
     measured = [s for s in stretches(line, nodes, measure=measure) if np.isfinite(s.width)]
     if not measured:
@@ -167,16 +170,9 @@ def _steady(pieces: list[Stretch], *, reach: int = NEIGHBOURS) -> list[Stretch]:
     return out
 
 
-def _cross_section(
-    piece: shapely.LineString,
-    points: NDArray[np.object_],
-    tree: shapely.STRtree,
-    x: NDArray[np.float64],
-    y: NDArray[np.float64],
-    z: NDArray[np.float64],
-    sign: float,
-) -> tuple[float, float]:
-    idx = tree.query(piece, predicate="dwithin", distance=SIDE[1])
+def _cross_section(piece: shapely.LineString, nodes: Nodes, sign: float) -> tuple[float, float]:
+    points, x, y, z = nodes.points, nodes.x, nodes.y, nodes.z
+    idx = nodes.tree.query(piece, predicate="dwithin", distance=SIDE[1])
     at = shapely.line_locate_point(piece, points[idx])
     inner = (at > 0.01) & (at < piece.length - 0.01)  # beside the piece, not beyond its ends
     idx, at = idx[inner], at[inner]

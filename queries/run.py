@@ -11,7 +11,7 @@ import shapely
 from queries.filters import Match
 from queries.language import Query, parse
 from queries.match import find, resolve
-from queries.profile import SIDE, Stretch, stretches, weighted_median
+from queries.profile import SIDE, Nodes, Stretch, stretches, weighted_median
 from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import QueryError
@@ -98,11 +98,12 @@ def _by_stretch(db: Database, q: Query, matches: list[Match], *, progress: bool 
     grow = SIDE[1] + matches[0].level
     box = (x0 - grow, y0 - grow, x1 + grow, y1 + grow)
     x, y, z, _ = db.points(q.version, level=matches[0].level, bbox=box, ordered=False)
+    nodes = Nodes.of(x, y, z)
     by_piece = Query(q.what, q.version, conditions=[c for c in q.conditions if c.attribute in ("width", name)])
     out = []
     for m in tqdm(matches, desc="cross-sections", unit=q.what, disable=not progress, leave=False):
         runs: list[list[Stretch]] = []
-        for st in stretches(m.geometry, (x, y, z), measure=flt.measure):
+        for st in stretches(m.geometry, nodes, measure=flt.measure):
             if not (np.isfinite(st.width) and _keep({"width": st.width, name: st.measure}, by_piece)):
                 runs.append([])
             elif runs and runs[-1] and runs[-1][-1].part == st.part:

@@ -69,7 +69,8 @@ def command(
         else:
             grid = None
     emit(found, fmt=fmt, crs=crs, out=out, layer=layer or "changes", noun="changed region(s)", append=append)
-    if dod and grid is not None:
+    if dod:
+        assert grid is not None  # made above whenever --dod is given
         from tdb.geotiff import write_geotiff
 
         tags = {"before": before, "after": after, "level_of_detection_m": f"{lod:.3f}", "units": "m"}
