@@ -11,7 +11,8 @@
    ground so found makes the next surface and the test is repeated, which lets
    ground creep up breaks of slope that the square windows cut off.
 4. Once settled, long, narrow, low groups of object cells (earthworks,
-   :mod:`ingest.ground.earthworks`) join the ground and the passes go on; once
+   :mod:`ingest.ground.earthworks`; grouped as the passes left them and as the
+   opening found them) join the ground and the passes go on; once
    settled again, groups that rise smoothly out of the ground (hills,
    :mod:`ingest.ground.hills`) do; last, free-standing walls.
 
@@ -126,7 +127,7 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
         found = np.zeros(grid.shape, bool)
         while stages_run < 2 and not found.any():
             found = (
-                _earthworks(grid, surface, zmin, idx, current, p)
+                _earthworks(grid, surface, zmin, idx, current, objects & ~pits, p)
                 if stages_run == 0
                 else _hills(grid, pts, is_ground, p)
             )
@@ -201,19 +202,27 @@ def _earthworks(
     zmin: NDArray[np.float64],
     lowest: NDArray[np.intp],
     current: NDArray[np.intp],
+    seeds: NDArray[np.bool_],
     p: AutoParams,
 ) -> NDArray[np.bool_]:
-    """Cells of long, narrow, low objects (:func:`ingest.ground.earthworks.elongated_objects`)."""
-    objects = (lowest >= 0) & (current != lowest)  # cells whose lowest point is not ground
-    centre = 0.25 * (surface[:-1, :-1] + surface[1:, :-1] + surface[:-1, 1:] + surface[1:, 1:])
-    height = np.where(objects, zmin - centre, 0.0)
-    return elongated_objects(
-        objects,
-        height,
-        cell=grid.cell,
-        min_length=p.earthwork_length,
-        min_ratio=p.earthwork_ratio,
-        min_width=p.earthwork_min_width,
-        max_width=p.earthwork_width,
-        max_height=p.earthwork_height,
-    )
+    """Cells of long, narrow, low objects (:func:`ingest.ground.earthworks.elongated_objects`),
+    among the cells whose lowest point is not ground."""
+    objects = (lowest >= 0) & (current != lowest)
+    centre = 0.25 * (surface[:-1, :-1] + surface[1:, :-1] + surface[1:, 1:] + surface[:-1, 1:])
+
+    def elongated(cells: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        return elongated_objects(
+            cells,
+            np.where(cells, zmin - centre, 0.0),
+            cell=grid.cell,
+            min_length=p.earthwork_length,
+            min_ratio=p.earthwork_ratio,
+            min_width=p.earthwork_min_width,
+            max_width=p.earthwork_width,
+            max_height=p.earthwork_height,
+        )
+
+    # The passes creep up a steep ridge here and there and leave its top cut in short pieces,
+    # too short to pass, and not the same pieces in two surveys; the ridge was whole among the
+    # cells the opening took for objects (``seeds``), so those groups are judged too.
+    return objects & (elongated(objects) | elongated(seeds))

@@ -98,8 +98,10 @@ def narrow_walls(
     max_tall_share : largest share of the group's cells that touch a ``tall`` cell.
     """
     # Groups are joined across single empty cells: where a wall's top holds no point, or none
-    # high enough, one survey would otherwise split it where the next does not.
-    joined, n = ndimage.label(ndimage.binary_closing(band, structure=np.ones((3, 3))), structure=np.ones((3, 3)))
+    # high enough, one survey would otherwise split it where the next does not. Two cells with
+    # one empty cell between them (in any direction, a knight's move too: a thin diagonal wall
+    # steps so) have overlapping 3 x 3 neighbourhoods; a closing would not fill that gap.
+    joined, n = ndimage.label(ndimage.binary_dilation(band, structure=np.ones((3, 3))))
     labels = np.where(band, joined, 0)
     if n == 0:
         return np.zeros(band.shape, bool)
