@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -85,15 +86,15 @@ def test_a_level_free_standing_band_is_a_wall_and_a_rough_or_crowded_one_is_not(
     rng = np.random.default_rng(0)
     level = np.where(band, height + rng.normal(0, 0.03, band.shape), 0.0)
     nothing_tall = np.zeros(band.shape, bool)
-    assert (narrow_walls(band, level, nothing_tall, cell=1.0) == band).all()
+    assert (~np.isnan(narrow_walls(band, level, nothing_tall, cell=1.0)) == band).all()
     # A hedge: the same band with a top that varies by ±0.5 m, spread evenly over that range in a
     # random order (a random draw from ±0.5 m on ~40 cells can have a median deviation under 0.15 m).
     rough = np.zeros(band.shape)
     rough[band] = height + rng.permutation(np.linspace(-0.5, 0.5, int(band.sum())))
-    assert not narrow_walls(band, rough, nothing_tall, cell=1.0).any()
+    assert np.isnan(narrow_walls(band, rough, nothing_tall, cell=1.0)).all()
     # The low band along a building's side: taller points right beside it.
     beside = _band(angle, length, 4, offset=width / 2 + 2.5)  # a 4 m wide roof along one side
-    assert not narrow_walls(band & ~beside, level, beside & ~band, cell=1.0).any()
+    assert np.isnan(narrow_walls(band & ~beside, level, beside & ~band, cell=1.0)).all()
 
 
 def test_a_thin_diagonal_wall_stepping_by_knight_moves_is_one_wall():
@@ -105,12 +106,28 @@ def test_a_thin_diagonal_wall_stepping_by_knight_moves_is_one_wall():
     band[5 + 2 * k, 10 + k] = True
     level = np.where(band, 1.1, 0.0)
     nothing_tall = np.zeros(band.shape, bool)
-    assert (narrow_walls(band, level, nothing_tall, cell=1.0, min_length=20.0) == band).all()
-    # Its halves moved three cells apart are two groups, each too short for a wall.
+    assert (~np.isnan(narrow_walls(band, level, nothing_tall, cell=1.0, min_length=20.0)) == band).all()
+    # With every fifth cell gone, the gaps are two cells wide: pieces of about 10 m, no wall.
     apart = band.copy()
-    apart[5 + 2 * k[29:], 10 + k[29:]] = False
-    apart[5 + 2 * k[29:] + 3, 10 + k[29:] + 3] = True
-    assert not narrow_walls(apart, np.where(apart, 1.1, 0.0), nothing_tall, cell=1.0, min_length=20.0).any()
+    apart[5 + 2 * k[::5], 10 + k[::5]] = False
+    assert np.isnan(narrow_walls(apart, np.where(apart, 1.1, 0.0), nothing_tall, cell=1.0, min_length=20.0)).all()
+
+
+def test_a_wall_under_crowns_is_judged_on_the_cells_no_crown_hides():
+    band = _band(0.4, 40, 2)
+    rng = np.random.default_rng(1)
+    top = np.where(band, 1.3 + rng.normal(0, 0.03, band.shape), 0.0)
+    # Crowns over 60 % of it: leaves between the wall's top and 2.5 m are its cells' highest low points.
+    hidden = band & (rng.random(band.shape) < 0.6)
+    top[hidden] = rng.uniform(1.6, 2.5, hidden.sum())
+    nothing_tall = np.zeros(band.shape, bool)
+    assert np.isnan(narrow_walls(band, top, nothing_tall, cell=1.0)).all()  # rough, judged on all cells
+    level = narrow_walls(band, top, nothing_tall, cell=1.0, hidden=hidden)
+    assert (~np.isnan(level) == band).all()
+    assert abs(np.nanmedian(level) - 1.3) < 0.05
+    # Hidden almost everywhere: a band under a tree row (shrubs), no wall.
+    shrubs = band & (rng.random(band.shape) < 0.9)
+    assert np.isnan(narrow_walls(band, top, nothing_tall, cell=1.0, hidden=shrubs)).all()
 
 
 def test_short_wide_and_high_bands_are_no_walls():
@@ -120,14 +137,21 @@ def test_short_wide_and_high_bands_are_no_walls():
         (_band(0.3, 40, 6, rows=60), 1.2),  # 6 m wide: no wall (an earthwork, if anything)
         (_band(0.3, 40, 2, rows=60), 3.5),  # 3.5 m high: above any wall
     ):
-        assert not narrow_walls(band, np.where(band, height, 0.0), tall, cell=1.0).any()
+        assert np.isnan(narrow_walls(band, np.where(band, height, 0.0), tall, cell=1.0)).all()
 
 
-def test_the_default_filter_keeps_a_wall_it_used_to_cut():
-    # Seed 2's 1.55 m high, 1.31 m wide wall: before this step 10 % of its top points were kept.
-    scene = make_scene(seed=2, size=300)
-    wall = next(f for f in scene.features if f.kind == "wall" and f.size > 1.5)
-    cloud = sample(scene, density=4, seed=2)
+@pytest.mark.parametrize(
+    ("seed", "height"),
+    [
+        (2, 1.55),  # 1.31 m wide: before the wall step 10 % of its top points were kept
+        (23, 1.77),  # under crowns: their leaves made its top rough, the crowns looked like roofs
+        (22, 1.11),  # 24 m long, diagonal: area over width read 18 m, under a wall's 20 m
+    ],
+)
+def test_the_default_filter_keeps_a_wall_it_used_to_cut(seed, height):
+    scene = make_scene(seed=seed, size=300)
+    wall = next(f for f in scene.features if f.kind == "wall" and abs(f.size - height) < 0.01)
+    cloud = sample(scene, density=4, seed=seed)
     top = (cloud.classification == GROUND) & (
         feature_offset(wall, cloud.xyz[:, 0], cloud.xyz[:, 1]) > 0.5 * wall.size
     )

@@ -61,7 +61,9 @@ class AutoParams:
     wall_length: float = 20.0  # shortest wall (m): bands are joined across gaps, rows of cars too
     wall_width: float = 3.5  # widest band of cells a wall's points fill (m)
     wall_roughness: float = 0.15  # a wall's top is level within this (m, median absolute deviation)
-    wall_tall_share: float = 0.1
+    wall_clear_share: float = 0.3  # least share of a wall's cells with no point higher than any wall
+    wall_above_top: float = 0.3  # points this far above a wall's top (m) are not the wall
+    wall_tall_share: float = 0.25  # largest share of a wall's cells beside a roof (nothing under it)
     hill_spacings: float = 1.5  # a hill's cells span this many point spacings (at least ``cell``)
     hill_rise: float = 0.5  # a hill lies under a cone of this rise and slope over the ground beside it
     hill_slope: float = 1.0
@@ -154,22 +156,29 @@ def _walls(
     band[row[low], col[low]] = True
     top = np.zeros(grid.shape)
     np.maximum.at(top, (row[low], col[low]), h[low])
-    tall = np.zeros(grid.shape, bool)
+    hidden = np.zeros(grid.shape, bool)
     higher = h > p.earthwork_height
-    tall[row[higher], col[higher]] = True
+    hidden[row[higher], col[higher]] = True
+    # A roof hides all below it; under a crown, beside or over a wall, there are ground or wall points.
+    tall = hidden.copy()
+    below = is_ground | low
+    tall[row[below], col[below]] = False
     walls = narrow_walls(
         band,
         top,
         tall,
         cell=grid.cell,
+        hidden=hidden,
         min_length=p.wall_length,
         min_ratio=p.earthwork_ratio,
         max_width=p.wall_width,
         max_height=p.earthwork_height,
         max_roughness=p.wall_roughness,
         max_tall_share=p.wall_tall_share,
+        min_clear_share=p.wall_clear_share,
     )
-    return low & walls[row, col]
+    # NaN (no wall) compares False; points well above a wall's top are leaves over it.
+    return low & (h <= walls[row, col] + p.wall_above_top)
 
 
 def _hills(grid: Grid, pts: NDArray[np.float64], is_ground: NDArray[np.bool_], p: AutoParams) -> NDArray[np.bool_]:

@@ -51,6 +51,17 @@ def elongated_objects(
     labels, n = ndimage.label(objects, structure=np.ones((3, 3)))
     if n == 0:
         return np.zeros(objects.shape, bool)
+    length, width = _extents(labels, n, cell)
+    top = np.asarray(ndimage.maximum(height, labels, index=np.arange(n + 1)), np.float64)
+    ok = (length >= min_length) & (length >= min_ratio * width) & (width >= min_width) & (width <= max_width)
+    ok &= top <= max_height
+    ok[0] = False
+    return np.asarray(ok[labels], bool)
+
+
+def _extents(labels: NDArray[np.integer], n: int, cell: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Length and width (m) of the rectangle with the second moments of each labelled group
+    (index 0: the background)."""
     r, c = np.nonzero(labels)
     lab = labels[r, c]
     count = np.bincount(lab, minlength=n + 1).astype(np.float64)
@@ -62,11 +73,7 @@ def elongated_objects(
     # A uniform rectangle of side s has variance s²/12 along it; a cell adds one cell of extent.
     length = (np.sqrt(12 * (half + gap)) + 1) * cell
     width = (np.sqrt(12 * np.maximum(half - gap, 0.0)) + 1) * cell
-    top = np.asarray(ndimage.maximum(height, labels, index=np.arange(n + 1)), np.float64)
-    ok = (length >= min_length) & (length >= min_ratio * width) & (width >= min_width) & (width <= max_width)
-    ok &= top <= max_height
-    ok[0] = False
-    return np.asarray(ok[labels], bool)
+    return length, width
 
 
 def narrow_walls(
@@ -75,27 +82,34 @@ def narrow_walls(
     tall: NDArray[np.bool_],
     *,
     cell: float,
+    hidden: NDArray[np.bool_] | None = None,
     min_length: float = 15.0,
     min_ratio: float = 4.0,
     max_width: float = 3.5,
     max_height: float = 2.5,
     max_roughness: float = 0.15,
     max_tall_share: float = 0.1,
-) -> NDArray[np.bool_]:
-    """Cells of ``band`` whose group (8-connected, joined across single empty cells) is a
-    free-standing wall.
+    min_clear_share: float = 0.3,
+) -> NDArray[np.float64]:
+    """The height of the top of the free-standing wall over each cell of ``band`` whose group
+    (8-connected, joined across single empty cells) is one; NaN elsewhere.
 
     Parameters
     ----------
     band : (rows, cols) cells holding a point that is not ground, a little above the ground.
     top : (rows, cols) height (m) of the highest such point of each cell above the ground surface.
-    tall : (rows, cols) cells holding a point higher than any wall.
+    tall : (rows, cols) cells holding a point higher than any wall and no ground: a roof.
     cell : cell size (m).
+    hidden : (rows, cols) cells holding a point higher than any wall (a crown over the wall, a
+        roof): their low points may be leaves as well as the wall's top, so the top's height and
+        roughness are judged on the other cells. None: no cell is hidden.
     min_length, min_ratio, max_width, max_height : the shape a group must have (m, length /
         width, m, m). The width is twice the mean distance of the group's cells to its edge, so
-        that curved walls are as narrow as straight ones; the length is the area over the width.
+        that curved walls are as narrow as straight ones; the length is the area over the width,
+        or the length of the rectangle with the group's second moments where that is longer.
     max_roughness : largest median absolute deviation (m) of the cells' tops about their median.
     max_tall_share : largest share of the group's cells that touch a ``tall`` cell.
+    min_clear_share : least share of the group's cells that are not ``hidden``.
     """
     # Groups are joined across single empty cells: where a wall's top holds no point, or none
     # high enough, one survey would otherwise split it where the next does not. Two cells with
@@ -104,18 +118,22 @@ def narrow_walls(
     joined, n = ndimage.label(ndimage.binary_dilation(band, structure=np.ones((3, 3))))
     labels = np.where(band, joined, 0)
     if n == 0:
-        return np.zeros(band.shape, bool)
+        return np.full(band.shape, np.nan)
     index = np.arange(n + 1)
     area = np.bincount(labels.ravel(), minlength=n + 1).astype(np.float64)
     inside = np.bincount(labels.ravel(), ndimage.distance_transform_edt(band).ravel(), minlength=n + 1)
     width = 2 * inside / np.maximum(area, 1.0) * cell
-    length = area * cell * cell / np.maximum(width, cell)
-    highest = np.asarray(ndimage.maximum(top, labels, index), np.float64)
-    middle = np.asarray(ndimage.median(top, labels, index), np.float64)
-    roughness = np.asarray(ndimage.median(np.abs(top - middle[labels]), labels, index), np.float64)
+    # Across a diagonal band the distance to its edge overstates the width, so area / width
+    # understates the length by up to √2; a straight wall's moments do not.
+    length = np.maximum(area * cell * cell / np.maximum(width, cell), _extents(labels, n, cell)[0])
+    clear = labels if hidden is None else np.where(hidden, 0, labels)
+    clear_area = np.bincount(clear.ravel(), minlength=n + 1)
+    highest = np.asarray(ndimage.maximum(top, clear, index), np.float64)
+    middle = np.asarray(ndimage.median(top, clear, index), np.float64)
+    roughness = np.asarray(ndimage.median(np.abs(top - middle[clear]), clear, index), np.float64)
     beside_tall = ndimage.binary_dilation(tall, structure=np.ones((3, 3)))
     tall_share = np.bincount(labels.ravel(), beside_tall.ravel(), minlength=n + 1) / np.maximum(area, 1.0)
     ok = (length >= min_length) & (length >= min_ratio * width) & (width <= max_width) & (highest <= max_height)
-    ok &= (roughness <= max_roughness) & (tall_share <= max_tall_share)
+    ok &= (roughness <= max_roughness) & (tall_share <= max_tall_share) & (clear_area >= min_clear_share * area)
     ok[0] = False
-    return np.asarray(ok[labels], bool)
+    return np.where(ok[labels], middle[labels], np.nan)
