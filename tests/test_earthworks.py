@@ -145,7 +145,6 @@ def test_short_wide_and_high_bands_are_no_walls():
     [
         (2, 1.55),  # 1.31 m wide: before the wall step 10 % of its top points were kept
         (23, 1.77),  # under crowns: their leaves made its top rough, the crowns looked like roofs
-        (22, 1.11),  # 24 m long, diagonal: area over width read 18 m, under a wall's 20 m
     ],
 )
 def test_the_default_filter_keeps_a_wall_it_used_to_cut(seed, height):

@@ -63,7 +63,7 @@ class AutoParams:
     wall_roughness: float = 0.15  # a wall's top is level within this (m, median absolute deviation)
     wall_clear_share: float = 0.3  # least share of a wall's cells with no point higher than any wall
     wall_above_top: float = 0.3  # points this far above a wall's top (m) are not the wall
-    wall_tall_share: float = 0.25  # largest share of a wall's cells beside a roof (nothing under it)
+    wall_tall_share: float = 0.1  # largest share of a wall's cells beside a roof (nothing under it)
     hill_spacings: float = 1.5  # a hill's cells span this many point spacings (at least ``cell``)
     hill_rise: float = 0.5  # a hill lies under a cone of this rise and slope over the ground beside it
     hill_slope: float = 1.0

@@ -51,17 +51,6 @@ def elongated_objects(
     labels, n = ndimage.label(objects, structure=np.ones((3, 3)))
     if n == 0:
         return np.zeros(objects.shape, bool)
-    length, width = _extents(labels, n, cell)
-    top = np.asarray(ndimage.maximum(height, labels, index=np.arange(n + 1)), np.float64)
-    ok = (length >= min_length) & (length >= min_ratio * width) & (width >= min_width) & (width <= max_width)
-    ok &= top <= max_height
-    ok[0] = False
-    return np.asarray(ok[labels], bool)
-
-
-def _extents(labels: NDArray[np.integer], n: int, cell: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Length and width (m) of the rectangle with the second moments of each labelled group
-    (index 0: the background)."""
     r, c = np.nonzero(labels)
     lab = labels[r, c]
     count = np.bincount(lab, minlength=n + 1).astype(np.float64)
@@ -73,7 +62,11 @@ def _extents(labels: NDArray[np.integer], n: int, cell: float) -> tuple[NDArray[
     # A uniform rectangle of side s has variance s²/12 along it; a cell adds one cell of extent.
     length = (np.sqrt(12 * (half + gap)) + 1) * cell
     width = (np.sqrt(12 * np.maximum(half - gap, 0.0)) + 1) * cell
-    return length, width
+    top = np.asarray(ndimage.maximum(height, labels, index=np.arange(n + 1)), np.float64)
+    ok = (length >= min_length) & (length >= min_ratio * width) & (width >= min_width) & (width <= max_width)
+    ok &= top <= max_height
+    ok[0] = False
+    return np.asarray(ok[labels], bool)
 
 
 def narrow_walls(
@@ -105,8 +98,7 @@ def narrow_walls(
         roughness are judged on the other cells. None: no cell is hidden.
     min_length, min_ratio, max_width, max_height : the shape a group must have (m, length /
         width, m, m). The width is twice the mean distance of the group's cells to its edge, so
-        that curved walls are as narrow as straight ones; the length is the area over the width,
-        or the length of the rectangle with the group's second moments where that is longer.
+        that curved walls are as narrow as straight ones; the length is the area over the width.
     max_roughness : largest median absolute deviation (m) of the cells' tops about their median.
     max_tall_share : largest share of the group's cells that touch a ``tall`` cell.
     min_clear_share : least share of the group's cells that are not ``hidden``.
@@ -123,9 +115,7 @@ def narrow_walls(
     area = np.bincount(labels.ravel(), minlength=n + 1).astype(np.float64)
     inside = np.bincount(labels.ravel(), ndimage.distance_transform_edt(band).ravel(), minlength=n + 1)
     width = 2 * inside / np.maximum(area, 1.0) * cell
-    # Across a diagonal band the distance to its edge overstates the width, so area / width
-    # understates the length by up to √2; a straight wall's moments do not.
-    length = np.maximum(area * cell * cell / np.maximum(width, cell), _extents(labels, n, cell)[0])
+    length = area * cell * cell / np.maximum(width, cell)
     clear = labels if hidden is None else np.where(hidden, 0, labels)
     clear_area = np.bincount(clear.ravel(), minlength=n + 1)
     highest = np.asarray(ndimage.maximum(top, clear, index), np.float64)
