@@ -63,7 +63,7 @@ class AutoParams:
     wall_roughness: float = 0.15  # a wall's top is level within this (m, median absolute deviation)
     wall_clear_share: float = 0.3  # least share of a wall's cells with no point higher than any wall
     wall_above_top: float = 0.3  # points this far above a wall's top (m) are not the wall
-    wall_tall_share: float = 0.1  # largest share of a wall's cells beside a roof (nothing under it)
+    wall_tall_share: float = 0.1  # largest share of a wall's cells beside a point higher than any wall
     hill_spacings: float = 1.5  # a hill's cells span this many point spacings (at least ``cell``)
     hill_rise: float = 0.5  # a hill lies under a cone of this rise and slope over the ground beside it
     hill_slope: float = 1.0
@@ -156,13 +156,12 @@ def _walls(
     band[row[low], col[low]] = True
     top = np.zeros(grid.shape)
     np.maximum.at(top, (row[low], col[low]), h[low])
+    # Cells with a point higher than any wall: roofs or crowns; both the band beside a building and
+    # a band under trees have them close by, and leaves among a band's points are no wall's top.
     hidden = np.zeros(grid.shape, bool)
     higher = h > p.earthwork_height
     hidden[row[higher], col[higher]] = True
-    # A roof hides all below it; under a crown, beside or over a wall, there are ground or wall points.
-    tall = hidden.copy()
-    below = is_ground | low
-    tall[row[below], col[below]] = False
+    tall = hidden
     walls = narrow_walls(
         band,
         top,

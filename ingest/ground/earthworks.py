@@ -91,7 +91,7 @@ def narrow_walls(
     ----------
     band : (rows, cols) cells holding a point that is not ground, a little above the ground.
     top : (rows, cols) height (m) of the highest such point of each cell above the ground surface.
-    tall : (rows, cols) cells holding a point higher than any wall and no ground: a roof.
+    tall : (rows, cols) cells holding a point higher than any wall (a roof or a crown).
     cell : cell size (m).
     hidden : (rows, cols) cells holding a point higher than any wall (a crown over the wall, a
         roof): their low points may be leaves as well as the wall's top, so the top's height and
