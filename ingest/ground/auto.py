@@ -161,11 +161,10 @@ def _walls(
     hidden = np.zeros(grid.shape, bool)
     higher = h > p.earthwork_height
     hidden[row[higher], col[higher]] = True
-    tall = hidden
     walls = narrow_walls(
         band,
         top,
-        tall,
+        hidden,
         cell=grid.cell,
         hidden=hidden,
         min_length=p.wall_length,
