@@ -62,11 +62,20 @@ def elongated_objects(
     # A uniform rectangle of side s has variance s²/12 along it; a cell adds one cell of extent.
     length = (np.sqrt(12 * (half + gap)) + 1) * cell
     width = (np.sqrt(12 * np.maximum(half - gap, 0.0)) + 1) * cell
-    top = np.asarray(ndimage.maximum(height, labels, index=np.arange(n + 1)), np.float64)
+    top = _group_max(height, labels, n)
     ok = (length >= min_length) & (length >= min_ratio * width) & (width >= min_width) & (width <= max_width)
     ok &= top <= max_height
     ok[0] = False
     return np.asarray(ok[labels], bool)
+
+
+def _group_max(values: NDArray[np.float64], labels: NDArray[np.integer], n: int) -> NDArray[np.float64]:
+    """Largest value of each labelled group (index 0, the background, and empty groups: -inf).
+    Only the labelled cells are visited: ``ndimage.maximum`` sorts the whole raster."""
+    inside = labels > 0
+    out = np.full(n + 1, -np.inf)
+    np.maximum.at(out, labels[inside], values[inside])
+    return out
 
 
 def narrow_walls(
@@ -118,7 +127,7 @@ def narrow_walls(
     length = area * cell * cell / np.maximum(width, cell)
     clear = labels if hidden is None else np.where(hidden, 0, labels)
     clear_area = np.bincount(clear.ravel(), minlength=n + 1)
-    highest = np.asarray(ndimage.maximum(top, clear, index), np.float64)
+    highest = _group_max(top, clear, n)
     middle = np.asarray(ndimage.median(top, clear, index), np.float64)
     roughness = np.asarray(ndimage.median(np.abs(top - middle[clear]), clear, index), np.float64)
     beside_tall = ndimage.binary_dilation(tall, structure=np.ones((3, 3)))
