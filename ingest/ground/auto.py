@@ -158,15 +158,14 @@ def _walls(
     np.maximum.at(top, (row[low], col[low]), h[low])
     # Cells with a point higher than any wall: roofs or crowns; both the band beside a building and
     # a band under trees have them close by, and leaves among a band's points are no wall's top.
-    hidden = np.zeros(grid.shape, bool)
+    tall = np.zeros(grid.shape, bool)
     higher = h > p.earthwork_height
-    hidden[row[higher], col[higher]] = True
+    tall[row[higher], col[higher]] = True
     walls = narrow_walls(
         band,
         top,
-        hidden,
+        tall,
         cell=grid.cell,
-        hidden=hidden,
         min_length=p.wall_length,
         min_ratio=p.earthwork_ratio,
         max_width=p.wall_width,

@@ -102,9 +102,9 @@ def narrow_walls(
     top : (rows, cols) height (m) of the highest such point of each cell above the ground surface.
     tall : (rows, cols) cells holding a point higher than any wall (a roof or a crown).
     cell : cell size (m).
-    hidden : (rows, cols) cells holding a point higher than any wall (a crown over the wall, a
-        roof): their low points may be leaves as well as the wall's top, so the top's height and
-        roughness are judged on the other cells. None: no cell is hidden.
+    hidden : (rows, cols) cells whose low points may be leaves as well as the wall's top (a crown
+        over the wall), so the top's height and roughness are judged on the other cells. None:
+        the ``tall`` cells.
     min_length, min_ratio, max_width, max_height : the shape a group must have (m, length /
         width, m, m). The width is twice the mean distance of the group's cells to its edge, so
         that curved walls are as narrow as straight ones; the length is the area over the width.
@@ -125,7 +125,7 @@ def narrow_walls(
     inside = np.bincount(labels.ravel(), ndimage.distance_transform_edt(band).ravel(), minlength=n + 1)
     width = 2 * inside / np.maximum(area, 1.0) * cell
     length = area * cell * cell / np.maximum(width, cell)
-    clear = labels if hidden is None else np.where(hidden, 0, labels)
+    clear = np.where(tall if hidden is None else hidden, 0, labels)
     clear_area = np.bincount(clear.ravel(), minlength=n + 1)
     highest = _group_max(top, clear, n)
     middle = np.asarray(ndimage.median(top, clear, index), np.float64)
