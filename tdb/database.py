@@ -14,6 +14,7 @@ import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from itertools import chain
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +30,8 @@ from tdb.errors import DatabaseError, TdbIOError, VersionExistsError, VersionNot
 
 SQLITE_MAGIC = b"SQLite format 3\x00"
 BATCH = 50_000
+ROWS_PER_STATEMENT = 200
+MAX_PARAMETERS = 999  # SQLite's limit before 3.32
 PROBE_CHUNK = 900
 
 
@@ -87,6 +90,26 @@ def open(path: str | os.PathLike[str], *, create: bool = False) -> Database:
     db = Database(engine, text)
     db._prepare(create=create)
     return db
+
+
+def _execute_rows(cursor: Any, sql: str, cols: list[list[Any]]) -> None:
+    """Insert the rows given column-wise with one statement per ``ROWS_PER_STATEMENT`` rows.
+
+    ``sql`` is a compiled single-row INSERT with positional parameters; its VALUES tuple is
+    repeated, so the statement stays SQLAlchemy's (no user text reaches it)."""
+    head, _, row = sql.rpartition(" VALUES ")
+    width = len(cols)
+    per = max(1, min(ROWS_PER_STATEMENT, MAX_PARAMETERS // max(width, 1)))
+    flat = list(chain.from_iterable(zip(*cols)))
+    count = len(flat) // width if width else 0
+    whole = count - count % per
+    if whole:
+        step = per * width
+        cursor.executemany(
+            f"{head} VALUES {', '.join([row] * per)}", [flat[i : i + step] for i in range(0, whole * width, step)]
+        )
+    if count > whole:
+        cursor.execute(f"{head} VALUES {', '.join([row] * (count - whole))}", flat[whole * width :])
 
 
 def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
@@ -297,7 +320,10 @@ class Database:
     ) -> None:
         """Batch insert of one version's rows: the statement SQLAlchemy compiles for this dialect, with
         the version as a literal, run by the DB-API's executemany batch by batch (Python objects for
-        25 M rows at once would take gigabytes; one parameter fewer per row saves a tenth)."""
+        25 M rows at once would take gigabytes; one parameter fewer per row saves a tenth).
+
+        With positional parameters (SQLite) each statement carries many rows: SQLite spends half its
+        time per statement run rather than per row, so this doubles the rows written per second."""
         values: dict[str, Any] = {"version": literal_column(str(int(vid))), **{k: bindparam(k) for k in columns}}
         # inline(): no RETURNING of the literal primary key column
         stmt = table.insert().inline().values(values).compile(dialect=conn.dialect)
@@ -306,12 +332,13 @@ class Database:
         cursor = conn.connection.cursor()
         try:
             for start in range(0, total, BATCH):
-                batch: list[Any] = list(zip(*(columns[k][start : start + BATCH].tolist() for k in names)))
-                if not stmt.positional:
-                    batch = [dict(zip(names, r)) for r in batch]
-                cursor.executemany(str(stmt), batch)
+                cols = [columns[k][start : start + BATCH].tolist() for k in names]
+                if stmt.positional:
+                    _execute_rows(cursor, str(stmt), cols)
+                else:
+                    cursor.executemany(str(stmt), [dict(zip(names, r)) for r in zip(*cols)])
                 if progress is not None:
-                    progress.update(len(batch))
+                    progress.update(len(cols[0]))
         finally:
             cursor.close()
 

@@ -64,6 +64,25 @@ def test_round_trip(tmp_path):
     np.testing.assert_allclose(np.array(got), np.array(want))
 
 
+@pytest.mark.parametrize("n", [1, 199, 200, 201, 50_001])
+def test_rows_written_whole_whatever_the_count(tmp_path, n):
+    # rows go in many per statement; the last statement carries the remainder
+    db = tdb.open(tmp_path / "a.tdb", create=True)
+    levels, points = _levels(n=n), _points(n=n)
+    db.write_version("v", levels=levels, points=points)
+    db.close()
+    con = sqlite3.connect(tmp_path / "a.tdb")
+    for level, (xg, yg, code) in levels.items():
+        got = np.array(con.execute(f"SELECT xg, yg, c FROM c{level} ORDER BY xg, yg").fetchall())
+        order = np.lexsort((yg, xg))
+        np.testing.assert_array_equal(got, np.column_stack([xg[order], yg[order], code[order]]))
+    got = np.array(con.execute("SELECT x, y, z, n FROM tdb ORDER BY x, y").fetchall())
+    order = np.lexsort((points[1], points[0]))
+    np.testing.assert_array_equal(got, np.column_stack([p[order] for p in points]))
+    assert {type(r[0]) for r in con.execute("SELECT n FROM tdb")} == {int}
+    con.close()
+
+
 def test_bbox_access(tmp_path):
     db = tdb.open(tmp_path / "a.tdb", create=True)
     db.write_version("v", levels=_levels(), points=_points())
