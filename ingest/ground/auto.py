@@ -15,6 +15,8 @@
    opening found them) join the ground and the passes go on; once
    settled again, groups that rise smoothly out of the ground (hills,
    :mod:`ingest.ground.hills`) do; last, free-standing walls.
+5. Ground points that are one-point pits or small groups far below all the
+   ground around them (multipath scatter) are dropped again.
 
 The surface used to be a TIN of the ground points. On the ISPRS samples the
 gap-filled corner grid is as accurate (3.95 % against 4.02 % mean total error)
@@ -35,7 +37,7 @@ from ingest.ground.fill import fill_linear
 from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of
 from ingest.ground.hills import point_spacing, smooth_hills
 from ingest.ground.morphology import progressive_opening
-from ingest.ground.outliers import ground_spikes, low_outliers
+from ingest.ground.outliers import ground_spikes, low_outliers, sunken_groups
 
 
 @dataclass(frozen=True)
@@ -141,6 +143,8 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
     is_ground |= _walls(grid, pts, h, is_ground, p)
     # One point 1-3 m under all the ground around it passed the 3 m outlier test; it is no terrain.
     is_ground &= ~ground_spikes(pts, is_ground, cells=cells)
+    # Multipath scatter under a void, tens of metres down: groups no other test takes.
+    is_ground &= ~sunken_groups(pts, is_ground, cells=cells)
     ground[keep[is_ground]] = True
     return ground
 

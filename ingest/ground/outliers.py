@@ -11,12 +11,17 @@ are queried: a few percent of the points on ordinary data.
 
 from __future__ import annotations
 
+from functools import reduce
+
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from ingest.ground.fill import fill_nearest
-from ingest.ground.grids import CellSort, Grid, lowest_per_cell, occupied_area
+from ingest.ground.grids import CellSort, Grid, heights_of, lowest_per_cell, occupied_area
 from ingest.ground.morphology import progressive_opening
 
 
@@ -190,3 +195,115 @@ def ground_spikes(
     spike = (xyz[nb, 2] - xyz[cand, 2][:, None] > base + slope * dist).all(axis=1)
     out[cand[spike]] = True
     return out
+
+
+REACH = (2.0, 6.0, 14.0)  # m: how far the ground a suspect lies under is looked for
+BLOCK = 2.0  # m: the raster that picks the suspects
+
+
+def sunken_groups(
+    xyz: NDArray[np.float64],
+    ground: NDArray[np.bool_],
+    *,
+    depth: float = 10.0,
+    step: float = 1.0,
+    slope: float = 2.0,
+    span: float = 3.0,
+    max_points: int = 500,
+    cells: CellSort | None = None,
+) -> NDArray[np.bool_]:
+    """Mask of ground points in small groups sunk more than ``depth`` m below all the ground around.
+
+    Multipath returns under water or glass can scatter tens of metres below a void in the
+    ground, spread wider than :func:`deep_pits` opens and too uneven for
+    :func:`ground_spikes`. Ground points are joined to their Delaunay neighbours where the
+    height step is at most ``step`` + ``slope`` × the distance (counted up to ``span`` m);
+    joined sets of more than ``max_points`` (and the largest one) are terrain. The other points, taken together
+    where they touch, are one group; a group of at most ``max_points`` whose every terrain
+    neighbour lies more than ``depth`` above it is no terrain.
+
+    Only the ground near a 2 m block whose lowest ground lies more than ``depth`` below the
+    lowest ground of a block up to 14 m away (beyond the rise of a 45° slope) is looked at: on
+    ordinary terrain, none. ``cells`` (default: 1 m cells) sorts the points by cell.
+    """
+    xyz = np.asarray(xyz, float)
+    out = np.zeros(len(xyz), bool)
+    if np.count_nonzero(ground) < 4:
+        return out
+    cells = cells or CellSort.of(Grid.covering(xyz[:, :2], 1.0), xyz)
+    low = heights_of(cells.lowest(ground), xyz)
+    # blocks of about BLOCK m: the lowest and the highest of their cells' lowest ground
+    f = max(1, round(BLOCK / cells.grid.cell))
+    size = f * cells.grid.cell
+    rows, cols = -(-low.shape[0] // f), -(-low.shape[1] // f)
+    padded = np.full((rows * f, cols * f), np.nan)
+    padded[: low.shape[0], : low.shape[1]] = low
+    parts = [padded[i::f, j::f] for i in range(f) for j in range(f)]
+    lo, hi = reduce(np.fmin, parts), reduce(np.fmax, parts)  # NaN only where a block is empty
+    hi[np.isnan(hi)] = -np.inf
+    steep = np.zeros((rows, cols), bool)
+    for reach in REACH:
+        w = max(1, round(reach / size))
+        top = ndimage.maximum_filter(hi, size=2 * w + 1, mode="constant", cval=-np.inf)
+        steep |= lo < top - depth - w * size
+    if not steep.any():
+        return out
+    # the group around a suspect block, and the terrain beside it across a void
+    near = ndimage.maximum_filter(steep, size=2 * round(REACH[-1] / size) + 1)
+    row, col = cells.grid.index(xyz[:, :2])
+    local = np.flatnonzero(ground & near[row // f, col // f])
+    # where the area is cut from the rest of the ground, a group's terrain may lie outside it
+    rim = near & ~ndimage.binary_erosion(near, structure=np.ones((3, 3)), border_value=1)
+    cut = rim[row[local] // f, col[local] // f]
+    sunk = _sunken(xyz[local], cut, depth=depth, step=step, slope=slope, span=span, max_points=max_points)
+    out[local[sunk]] = True
+    return out
+
+
+def _sunken(
+    xyz: NDArray[np.float64],
+    cut: NDArray[np.bool_],
+    *,
+    depth: float,
+    step: float,
+    slope: float,
+    span: float,
+    max_points: int,
+) -> NDArray[np.bool_]:
+    """:func:`sunken_groups` on the ground points ``xyz`` of one area; a group holding a point
+    ``cut`` marks (on the area's rim) is kept."""
+    n = len(xyz)
+    try:
+        tri = Delaunay(xyz[:, :2])
+    except QhullError:  # fewer than three points off one line: no area to judge
+        return np.zeros(n, bool)
+    s = tri.simplices.astype(np.int64)
+    pairs = np.concatenate([s[:, [0, 1]], s[:, [1, 2]], s[:, [2, 0]]])
+    key = np.unique(pairs.min(axis=1) * n + pairs.max(axis=1))  # each edge once
+    a, b = key // n, key % n
+    dz = xyz[b, 2] - xyz[a, 2]
+    # a long edge across a void says little about the slope: it joins only a small step
+    joined = np.abs(dz) <= step + slope * np.minimum(np.hypot(*(xyz[b, :2] - xyz[a, :2]).T), span)
+    size, label = _components(n, a[joined], b[joined])
+    terrain = (size > max_points) | (size == size.max())
+    on = terrain[label]
+    # the points off the terrain, grouped wherever they touch whatever the step
+    inner = ~on[a] & ~on[b]
+    gsize, group = _components(n, a[inner], b[inner])
+    # rise from a group to the terrain over every edge between them, either way round
+    cross = on[a] != on[b]
+    low = np.where(on[a[cross]], b[cross], a[cross])
+    high = np.where(on[a[cross]], a[cross], b[cross])
+    rise = np.full(len(gsize), np.inf)
+    np.minimum.at(rise, group[low], xyz[high, 2] - xyz[low, 2])
+    open_ = np.zeros(len(gsize), bool)
+    open_[group[cut & ~on]] = True
+    sunk = np.isfinite(rise) & (rise > depth) & (gsize <= max_points) & ~open_
+    return ~on & sunk[group]
+
+
+def _components(n: int, a: NDArray[np.intp], b: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """(size per component, component per node) of the undirected graph on ``n`` nodes with edges a–b."""
+    graph = coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    return np.bincount(label), label
