@@ -35,27 +35,31 @@ def fill_nearest(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]
 def _across_rows(
     raster: NDArray[np.floating[Any]], holes: NDArray[np.intp]
 ) -> tuple[NDArray[np.floating[Any]], NDArray[np.floating[Any]]]:
-    """At the holes of a 2-D raster (flat indices), the straight line along the row between the
-    filled cells either side, and that gap's length (NaN and inf where the row has no filled
-    cell on one side)."""
+    """At the holes of a 2-D raster (flat indices, ascending), the straight line along the row
+    between the filled cells either side, and that gap's length (NaN and inf where the row has
+    no filled cell on one side)."""
     cols = raster.shape[1]
     flat = raster.ravel()
-    filled = ~np.isnan(raster)
-    # int32 scans over the whole raster, then flat gathers at the holes only: both are several
-    # times cheaper than int64 rasters and (row, column) fancy indexing
-    col = np.arange(cols, dtype=np.int32)
+    if len(holes) == 0:
+        return np.zeros(0, raster.dtype), np.zeros(0, raster.dtype)
     at = holes % cols
-    left = np.take(np.maximum.accumulate(np.where(filled, col, np.int32(-1)), axis=1).ravel(), holes)
-    right = np.take(
-        np.minimum.accumulate(np.where(filled, col, np.int32(cols))[:, ::-1], axis=1)[:, ::-1].ravel(), holes
-    )
+    # Runs of holes along a row share both banks: working per run touches the holes only,
+    # where scans over the whole raster cost twice as much.
+    first = np.empty(len(holes), bool)
+    first[0] = True
+    np.not_equal(holes[1:], holes[:-1] + 1, out=first[1:])
+    first[1:] |= at[1:] == 0
+    starts = np.flatnonzero(first)
+    ends = np.r_[starts[1:] - 1, len(holes) - 1]
+    run = np.cumsum(first) - 1
+    left, right = at[starts] - 1, at[ends] + 1
     bracketed = (left >= 0) & (right < cols)
-    start = holes - at
-    lv = np.take(flat, start + np.clip(left, 0, cols - 1))
-    rv = np.take(flat, start + np.clip(right, 0, cols - 1))
-    gap = (right - left).astype(raster.dtype)
-    t = np.where(bracketed, (at - left).astype(raster.dtype) / np.maximum(gap, 1), 0)
-    return np.where(bracketed, lv + t * (rv - lv), np.nan), np.where(bracketed, gap, np.inf)
+    lv = np.take(flat, np.where(bracketed, holes[starts] - 1, 0))[run]
+    rv = np.take(flat, np.where(bracketed, holes[ends] + 1, 0))[run]
+    gap = (right - left).astype(raster.dtype)[run]
+    inside = bracketed[run]
+    t = np.where(inside, (at - left[run]).astype(raster.dtype) / np.maximum(gap, 1), 0)
+    return np.where(inside, lv + t * (rv - lv), np.nan), np.where(inside, gap, np.inf)
 
 
 def fill_lines(raster: NDArray[np.floating[Any]], *, passes: int = 1) -> NDArray[np.floating[Any]]:
@@ -81,9 +85,15 @@ def fill_lines(raster: NDArray[np.floating[Any]], *, passes: int = 1) -> NDArray
     flat = raster.reshape(-1, rows, cols)
     v_row, g_row = _across_rows(flat.reshape(-1, cols), holes)
     turned = np.swapaxes(flat, -1, -2).reshape(-1, rows)
-    layer, cell = np.divmod(holes, rows * cols)
-    r, c = np.divmod(cell, cols)
-    v_col, g_col = _across_rows(turned, layer * (rows * cols) + c * rows + r)
+    # the holes in the turned raster's order, then their answers put back in the holes' order
+    turned_holes = np.flatnonzero(np.isnan(turned))
+    layer, cell = np.divmod(turned_holes, rows * cols)
+    c, r = np.divmod(cell, rows)
+    back = layer * (rows * cols) + r * cols + c
+    v_turned, g_turned = _across_rows(turned, turned_holes)
+    v_col, g_col = np.empty(flat.size, v_turned.dtype), np.empty(flat.size, g_turned.dtype)
+    v_col[back], g_col[back] = v_turned, g_turned
+    v_col, g_col = v_col[holes], g_col[holes]
     # unbracketed lines have gap inf, weight 0
     w_row = 1.0 / np.maximum(g_row, 1.0) ** 2
     w_col = 1.0 / np.maximum(g_col, 1.0) ** 2
