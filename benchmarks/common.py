@@ -39,9 +39,11 @@ def peak_rss_mib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def save(name: str, doc: dict[str, Any]) -> Path:
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    path = RESULTS / f"{name}.json"
+def save(name: str, doc: dict[str, Any], *, path: Path | None = None) -> Path:
+    """Write ``doc`` with the machine's description to ``path`` (default: the results folder's
+    ``name``.json, which docs/benchmarks.md is made from)."""
+    path = path or RESULTS / f"{name}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps({"machine": machine(), **doc}, indent=1, default=float))
     return path
 

@@ -61,7 +61,7 @@ def main() -> None:
     args = parser.parse_args()
     table = run([m.strip() for m in args.methods.split(",")])
     print(markdown(table))
-    print(save("ground_isprs", table))
+    print(save("ground_isprs", table, path=args.out))
 
 
 if __name__ == "__main__":
