@@ -154,10 +154,10 @@ def _srs(con: sqlite3.Connection, crs: Any) -> int:
     if crs is None:
         return UNDEFINED_CARTESIAN
     epsg = crs.to_epsg()
+    wkt = crs.to_wkt("WKT1_GDAL")
     if epsg:
         srs_id = int(epsg)
     else:  # the same custom CRS again reuses its row; another one gets the next free id
-        wkt = crs.to_wkt("WKT1_GDAL")
         row = con.execute("SELECT srs_id FROM gpkg_spatial_ref_sys WHERE definition = ?", (wkt,)).fetchone()
         if row:
             return int(row[0])
@@ -167,7 +167,7 @@ def _srs(con: sqlite3.Connection, crs: Any) -> int:
         srs_id = CUSTOM_SRS if top is None else int(top) + 1
     con.execute(
         "INSERT OR IGNORE INTO gpkg_spatial_ref_sys VALUES (?, ?, ?, ?, ?, ?)",
-        (crs.name, srs_id, "EPSG" if epsg else "NONE", srs_id, crs.to_wkt("WKT1_GDAL"), ""),
+        (crs.name, srs_id, "EPSG" if epsg else "NONE", srs_id, wkt, ""),
     )
     return srs_id
 

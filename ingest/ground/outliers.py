@@ -250,11 +250,14 @@ def sunken_groups(
         return out
     # the group around a suspect block, and the terrain beside it across a void
     near = ndimage.maximum_filter(steep, size=2 * round(REACH[-1] / size) + 1)
-    row, col = cells.grid.index(xyz[:, :2])
-    local = np.flatnonzero(ground & near[row // f, col // f])
+    gi = np.flatnonzero(ground)
+    row, col = cells.grid.index(xyz[gi, :2])
+    row, col = row // f, col // f
+    inside = near[row, col]
+    local = gi[inside]
     # where the area is cut from the rest of the ground, a group's terrain may lie outside it
     rim = near & ~ndimage.binary_erosion(near, structure=np.ones((3, 3)), border_value=1)
-    cut = rim[row[local] // f, col[local] // f]
+    cut = rim[row[inside], col[inside]]
     sunk = _sunken(xyz[local], cut, depth=depth, step=step, slope=slope, span=span, max_points=max_points)
     out[local[sunk]] = True
     return out

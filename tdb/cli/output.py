@@ -64,12 +64,11 @@ def emit(
         write_geopackage(out, {layer: features}, crs=crs, append=append)
         click.echo(f"{len(features)} {noun} → {out}, layer {layer}", err=True)
         return
-    else:
-        body = render(features, kind, crs)
-        if out is None:
-            click.echo(body)
-            return
-        out.write_text(body)
+    body = render(features, kind, crs)
+    if out is None:
+        click.echo(body)
+        return
+    out.write_text(body)
     click.echo(f"{len(features)} {noun} → {out}", err=True)
 
 
