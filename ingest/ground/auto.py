@@ -6,7 +6,8 @@
    window (the progressive morphological idea of Zhang et al. and SMRF).
 3. Refinement: the seed ground becomes a surface posted at the cell corners
    (:func:`ingest.ground.grids.corner_heights`, holes bridged by straight lines,
-   :func:`ingest.ground.fill.fill_linear`) and every point is judged by its height
+   :func:`ingest.ground.fill.fill_linear`, in later passes only where cells changed,
+   :mod:`ingest.ground.refill`) and every point is judged by its height
    above that surface against a threshold that grows with the local slope; the
    ground so found makes the next surface and the test is repeated, which lets
    ground creep up breaks of slope that the square windows cut off.
@@ -25,6 +26,7 @@ and needs no triangulation, which took three quarters of the time.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,11 +35,12 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from ingest.ground.earthworks import elongated_objects, narrow_walls
-from ingest.ground.fill import fill_linear
+from ingest.ground.fill import fill_lines, fill_nearest
 from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of
 from ingest.ground.hills import point_spacing, smooth_hills
 from ingest.ground.morphology import progressive_opening
 from ingest.ground.outliers import ground_spikes, low_outliers, sunken_groups
+from ingest.ground.refill import LineFill
 
 
 @dataclass(frozen=True)
@@ -78,12 +81,21 @@ class AutoParams:
 
 
 def ground_surface(
-    grid: Grid, xyz: NDArray[np.float64], lowest: NDArray[np.intp]
+    grid: Grid,
+    xyz: NDArray[np.float64],
+    lowest: NDArray[np.intp],
+    *,
+    lines: Callable[[NDArray[np.floating[Any]]], NDArray[np.floating[Any]]] = fill_lines,
 ) -> tuple[NDArray[np.floating[Any]], NDArray[np.floating[Any]]]:
     """Corner-posted ground surface through the points ``lowest`` (one per cell) with its holes
     filled, and its slope (rise/run), lightly smoothed so one noisy point does not raise the
-    threshold around it."""
-    surface = fill_linear(corner_heights(grid, xyz, lowest))
+    threshold around it.
+
+    ``lines`` bridges the holes (:func:`ingest.ground.fill.fill_lines`, or a
+    :class:`ingest.ground.refill.LineFill` that a run of passes shares); beyond the data
+    the nearest value fills them.
+    """
+    surface = fill_nearest(lines(corner_heights(grid, xyz, lowest)))
     dy, dx = np.gradient(ndimage.uniform_filter(surface, size=3, mode="nearest"), grid.cell)
     return surface, np.hypot(dx, dy)
 
@@ -112,6 +124,8 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
     current = np.where(~objects & ~pits, idx, -1)
     at_points = grid.corner_sampler(pts[:, :2])
     is_ground = np.zeros(len(pts), bool)
+    # later passes change few cells of the surface: only their runs of holes are filled again
+    lines = LineFill()
     # Once the passes settle, each stage may hand them more ground, once: steep-sided ridges,
     # dikes and embankment crests (long, narrow, low groups of object cells), then hills
     # (groups that rise smoothly out of the ground).
@@ -119,7 +133,7 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
     passes = p.refinements + 1
     while True:
         passes -= 1
-        surface, slope_map = ground_surface(grid, pts, current)
+        surface, slope_map = ground_surface(grid, pts, current, lines=lines)
         h = pts[:, 2] - at_points(surface)
         before = is_ground
         is_ground = (h <= p.threshold + p.slope_scale * at_points(slope_map)) & (h >= -p.below)

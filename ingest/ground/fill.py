@@ -32,7 +32,7 @@ def fill_nearest(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]
     return raster[ri, ci]
 
 
-def _across_rows(
+def across_rows(
     raster: NDArray[np.floating[Any]], holes: NDArray[np.intp]
 ) -> tuple[NDArray[np.floating[Any]], NDArray[np.floating[Any]]]:
     """At the holes of a 2-D raster (flat indices, ascending), the straight line along the row
@@ -83,25 +83,35 @@ def fill_lines(raster: NDArray[np.floating[Any]], *, passes: int = 1) -> NDArray
     # A stack is one tall raster for the rows and one wide raster for the columns; only
     # the holes are interpolated.
     flat = raster.reshape(-1, rows, cols)
-    v_row, g_row = _across_rows(flat.reshape(-1, cols), holes)
+    v_row, g_row = across_rows(flat.reshape(-1, cols), holes)
     turned = np.swapaxes(flat, -1, -2).reshape(-1, rows)
     # the holes in the turned raster's order, then their answers put back in the holes' order
     turned_holes = np.flatnonzero(np.isnan(turned))
     layer, cell = np.divmod(turned_holes, rows * cols)
     c, r = np.divmod(cell, rows)
     back = layer * (rows * cols) + r * cols + c
-    v_turned, g_turned = _across_rows(turned, turned_holes)
+    v_turned, g_turned = across_rows(turned, turned_holes)
     v_col, g_col = np.empty(flat.size, v_turned.dtype), np.empty(flat.size, g_turned.dtype)
     v_col[back], g_col[back] = v_turned, g_turned
-    v_col, g_col = v_col[holes], g_col[holes]
+    out = raster.copy()
+    out.reshape(-1)[holes] = weighted_lines(v_row, g_row, v_col[holes], g_col[holes])
+    return out
+
+
+def weighted_lines(
+    v_row: NDArray[np.floating[Any]],
+    g_row: NDArray[np.floating[Any]],
+    v_col: NDArray[np.floating[Any]],
+    g_col: NDArray[np.floating[Any]],
+) -> NDArray[np.floating[Any]]:
+    """The row and column lines' values at holes, weighted by the inverse square of their gaps
+    (NaN where neither line brackets the hole)."""
     # unbracketed lines have gap inf, weight 0
     w_row = 1.0 / np.maximum(g_row, 1.0) ** 2
     w_col = 1.0 / np.maximum(g_col, 1.0) ** 2
     weight = w_row + w_col
     line = (np.nan_to_num(v_row) * w_row + np.nan_to_num(v_col) * w_col) / np.where(weight > 0, weight, 1.0)
-    out = raster.copy()
-    out.reshape(-1)[holes] = np.where(weight > 0, line, np.nan)
-    return out
+    return np.where(weight > 0, line, np.nan)
 
 
 def fill_linear(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:

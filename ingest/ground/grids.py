@@ -155,20 +155,23 @@ def corner_heights(grid: Grid, xyz: NDArray[np.float64], lowest: NDArray[np.intp
     (0.1 mm at 1000 m) halves the memory traffic of the passes that fill and sample it.
     """
     rows, cols = grid.shape
-    r, c = np.nonzero(lowest >= 0)
-    p = xyz[lowest[r, c]]
-    fu = (p[:, 0] - grid.x0) / grid.cell - c
-    fv = (p[:, 1] - grid.y0) / grid.cell - r
-    corner = r * (cols + 1) + c
+    flat = lowest.ravel()
+    cell = np.flatnonzero(flat >= 0)
+    chosen = flat[cell]
+    r, c = np.divmod(cell, cols)
+    fu = (xyz[:, 0].take(chosen) - grid.x0) / grid.cell - c
+    fv = (xyz[:, 1].take(chosen) - grid.y0) / grid.cell - r
+    z = xyz[:, 2].take(chosen)
+    corner = cell + r  # the cell's south-west corner on the (rows + 1, cols + 1) posts
     size = (rows + 1) * (cols + 1)
-    # each point feeds the four corners of its cell; scattering over the filled cells only
-    # is cheaper than stacking shifted rasters that are mostly empty on sparse data, and one
-    # scatter of all four is cheaper than four (each corner gets at most one point per shift)
-    shifts = ((0, 0), (0, 1), (1, 0), (1, 1))
-    w = np.concatenate([1.0 / ((fu - dj) ** 2 + (fv - di) ** 2 + 1e-6) for di, dj in shifts])
-    at = np.concatenate([corner + di * (cols + 1) + dj for di, dj in shifts])
-    num = np.bincount(at, w * np.tile(p[:, 2], 4), minlength=size)
-    den = np.bincount(at, w, minlength=size)
-    out = np.full(size, np.nan, np.float32)
-    np.divide(num, den, out=out, where=den > 0, casting="same_kind")
+    num, den = np.zeros(size), np.zeros(size)
+    # each point feeds the four corners of its cell; within one shift no corner gets two
+    # points, so four scatters over the filled cells need no bincount
+    for di, dj in ((0, 0), (0, 1), (1, 0), (1, 1)):
+        w = 1.0 / ((fu - dj) ** 2 + (fv - di) ** 2 + 1e-6)
+        at = corner + (di * (cols + 1) + dj)
+        num[at] += w * z
+        den[at] += w
+    with np.errstate(invalid="ignore", divide="ignore"):  # 0 / 0: no point around the corner
+        out = (num / den).astype(np.float32)
     return out.reshape(rows + 1, cols + 1)
