@@ -103,21 +103,36 @@ def refine(
     keep = np.broadcast_to(corner_mask(n), tiles.shape) & valid
     err = rebuild_error(tiles, keep, n=n)
     nb = _neighbours(ti, tj)
-    # The category's feature nodes first, where the corners alone miss their relief.
-    t, node = np.nonzero(category_nodes(codes, n=n) & (err > max(relief, tolerance)))  # err is 0 without data
-    added, rows = _add(keep, t, node, err[t, node], budget, nb, n)
-    budget -= added
-    err[rows] = rebuild_error(tiles[rows], keep[rows], n=n)
+    # The category's feature nodes first, where the corners alone miss their relief (err is 0
+    # without data). Where they would spend the whole budget (a patchy survey, whose tile corners
+    # take most of it), they go first within each band instead, so that a node rebuilt 1.5 m
+    # off is not left for a bend of 0.1 m.
+    feature = category_nodes(codes, n=n) & (err > max(relief, tolerance))
+    feature_err = np.where(feature, err, 0.0)
+
+    def keep_nodes(t: NDArray[np.intp], node: NDArray[np.intp], e: NDArray[np.float64]) -> None:
+        nonlocal budget
+        added, rows = _add(keep, t, node, e, budget, nb, n)
+        budget -= added
+        err[rows] = rebuild_error(tiles[rows], keep[rows], n=n)
+
+    def keep_features(floor: float) -> None:
+        t, node = np.nonzero((feature_err > floor) & ~keep)
+        keep_nodes(t, node, feature_err[t, node])
+
+    fits = np.count_nonzero(feature) <= budget
+    if fits:
+        keep_features(0.0)
     for band in [b for b in SCHEDULE if b > tolerance] + [tolerance]:
+        if not fits:
+            keep_features(band)
         while budget > 0:
             worst = err.argmax(axis=1)
             e = err[np.arange(len(err)), worst]
             t = np.flatnonzero(e > band)
             if len(t) == 0:
                 break
-            added, rows = _add(keep, t, worst[t], e[t], budget, nb, n)
-            budget -= added
-            err[rows] = rebuild_error(tiles[rows], keep[rows], n=n)
+            keep_nodes(t, worst[t], e[t])
     return keep
 
 

@@ -128,3 +128,23 @@ def test_a_kept_edge_node_is_kept_by_both_tiles_sharing_it():
     east = np.flatnonzero((ti == 1) & (tj == 0))[0]
     assert keep[west, 1:4, 4].any()
     assert (keep[west, :, 4] == keep[east, :, 0]).all()
+
+
+def test_a_budget_the_feature_nodes_would_spend_goes_to_the_worst_errors_first():
+    from ingest.categorise import categorise
+    from ingest.reduce import category_nodes, corner_mask, rebuild_error, refine
+
+    # Shallow valleys through every tile (their nodes stand 0.3 m out of the corners' surface)
+    # and one 2 m pit off the valley lines: three nodes cannot keep every valley node.
+    def surface(x, y):
+        return 0.3 * np.abs((x % 2.0) - 1.0) - 2.0 * np.exp(-((x - 4.5) ** 2 + (y - 5.0) ** 2) / 0.05)
+
+    tiles, ti, tj = _tiles(surface)
+    codes = categorise(tiles, flat_threshold=0.1, n=5)
+    corners = np.broadcast_to(corner_mask(5), tiles.shape)
+    standing_out = category_nodes(codes, n=5) & (rebuild_error(tiles, corners, n=5) > 0.1)
+    assert standing_out.sum() > 3
+    pit = np.flatnonzero((ti == 2) & (tj == 2))[0]
+    before = rebuild_error(tiles, corners, n=5)[pit].max()
+    keep = refine(tiles, codes, ti, tj, n=5, budget=3, relief=0.1)
+    assert rebuild_error(tiles, keep, n=5)[pit].max() < before / 2
