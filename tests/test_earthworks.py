@@ -7,12 +7,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from ingest.ground import classify_ground
 from ingest.ground.auto import auto_ground
 from ingest.ground.earthworks import elongated_objects, narrow_walls
 from ingest.synth import apply_changes, make_scene, sample
 from ingest.synth.scene import Feature
 from ingest.synth.surface import feature_offset
 from tdb.cloud import GROUND
+from tdb.errors import InputError
 
 
 def _band(angle, length, width, rows=90, offset=0.0):
@@ -155,3 +157,65 @@ def test_the_default_filter_keeps_a_wall_it_used_to_cut(seed, height):
     )
     assert top.sum() > 50
     assert auto_ground(cloud.xyz)[top].mean() > 0.8
+
+
+def _scene_with_a_band(cover: str, *, seed: int = 0):
+    """Flat ground (4 points/m²) and a free-standing band 30 × 1.2 m, 1.2 m high, along y = 40,
+    whose middle 10 m lie under a ``cover``: a crown (two-return pulses: a leaf, then the band or
+    the ground) or a roof (single returns, 4 m). A tree far off gives the cloud two-return pulses
+    whatever the cover. Returns xyz, return numbers, numbers of returns and the band's points."""
+    rng = np.random.default_rng(seed)
+    n = 80 * 80 * 4
+    xy = rng.uniform(0, 80, (n, 2))
+    z = np.full(n, 100.0) + rng.normal(0, 0.02, n)
+    band = (np.abs(xy[:, 0] - 40) <= 15) & (np.abs(xy[:, 1] - 40) <= 0.6)
+    z[band] += 1.2
+    number, count = np.ones(n, np.uint8), np.ones(n, np.uint8)
+    covered = (np.abs(xy[:, 0] - 40) <= 5) & (np.abs(xy[:, 1] - 40) <= 4)
+    tree = (xy[:, 0] - 10) ** 2 + (xy[:, 1] - 10) ** 2 < 16
+    if cover == "roof":
+        z[covered] = 104.0
+    leaves = (covered | tree) if cover == "crown" else tree
+    number[leaves], count[leaves] = 2, 2
+    k = int(leaves.sum())
+    xyz = np.vstack([np.column_stack([xy, z]), np.column_stack([xy[leaves], 100 + rng.uniform(5, 8, k)])])
+    number = np.concatenate([number, np.ones(k, np.uint8)])
+    count = np.concatenate([count, np.full(k, 2, np.uint8)])
+    visible = band & ~(covered if cover == "roof" else np.zeros(n, bool))
+    return xyz, number, count, np.flatnonzero(visible)
+
+
+def test_a_wall_under_a_crown_is_found_from_the_last_returns():
+    xyz, number, count, band = _scene_with_a_band("crown")
+    assert auto_ground(xyz)[band].mean() < 0.2  # crowns beside its cells: no wall
+    ground = auto_ground(xyz, returns=(number, count))
+    assert ground[band].mean() > 0.9
+    assert not ground[xyz[:, 2] > 104].any()  # no leaf is ground
+
+
+def test_a_band_under_a_roof_is_no_wall_with_returns_or_without():
+    xyz, number, count, band = _scene_with_a_band("roof")
+    assert auto_ground(xyz)[band].mean() < 0.2
+    assert auto_ground(xyz, returns=(number, count))[band].mean() < 0.2
+
+
+def test_returns_of_single_return_pulses_change_nothing():
+    xyz, number, count, _ = _scene_with_a_band("crown")
+    ones = np.ones(len(xyz), np.uint8)
+    np.testing.assert_array_equal(auto_ground(xyz, returns=(ones, ones)), auto_ground(xyz))
+    with pytest.raises(InputError):
+        auto_ground(xyz, returns=(number[:-1], count))
+
+
+@pytest.mark.parametrize(("seed", "height"), [(1, 1.04)])  # crowns beside it made it a building's band
+def test_the_default_filter_keeps_a_wall_beside_crowns_given_the_returns(seed, height):
+    scene = make_scene(seed=seed, size=300)
+    wall = next(f for f in scene.features if f.kind == "wall" and abs(f.size - height) < 0.01)
+    cloud = sample(scene, density=4, seed=seed)
+    top = (cloud.classification == GROUND) & (
+        feature_offset(wall, cloud.xyz[:, 0], cloud.xyz[:, 1]) > 0.5 * wall.size
+    )
+    assert top.sum() > 50
+    assert auto_ground(cloud.xyz)[top].mean() < 0.2
+    # the cloud's own returns reach the filter
+    assert classify_ground(cloud, exclude=())[top].mean() > 0.8

@@ -48,20 +48,19 @@ def classify_ground(
     drop = excluded(cloud.classification, exclude)
     if not drop.any():
         check_spread(cloud)
-        return _ground(cloud.xyz, m, progress)
+        return _ground(cloud, m, progress)
     use = np.flatnonzero(~drop)
     kept = cloud.take(use)
     check_spread(kept)
     ground = np.zeros(len(drop), bool)
-    ground[use] = _ground(kept.xyz, m, progress)
+    ground[use] = _ground(kept, m, progress)
     return ground
 
 
-def _ground(
-    xyz: NDArray[np.float64], m: GroundMethod, progress: Callable[[int, int], None] | None
-) -> NDArray[np.bool_]:
+def _ground(cloud: PointCloud, m: GroundMethod, progress: Callable[[int, int], None] | None) -> NDArray[np.bool_]:
+    xyz = cloud.xyz
     if m is GroundMethod.AUTO:
-        ground = auto_ground(xyz)
+        ground = auto_ground(xyz, returns=(cloud.return_number, cloud.number_of_returns))
         if progress:
             progress(1, 1)
         return ground

@@ -41,6 +41,7 @@ from ingest.ground.hills import point_spacing, smooth_hills
 from ingest.ground.morphology import progressive_opening
 from ingest.ground.outliers import ground_spikes, low_outliers, sunken_groups
 from ingest.ground.refill import LineFill
+from tdb.errors import InputError
 
 
 @dataclass(frozen=True)
@@ -100,16 +101,29 @@ def ground_surface(
     return surface, np.hypot(dx, dy)
 
 
-def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -> NDArray[np.bool_]:
+def auto_ground(
+    xyz: NDArray[np.float64],
+    *,
+    params: AutoParams | None = None,
+    returns: tuple[NDArray[np.integer[Any]], NDArray[np.integer[Any]]] | None = None,
+) -> NDArray[np.bool_]:
     """Ground mask by the default filter (one parameter set for all data).
 
     Parameters
     ----------
     xyz : (N, 3) coordinates in metres.
     params : thresholds; the defaults are the product's single parameter set.
+    returns : (return number, number of returns) of each point. Where some pulse has several
+        returns, walls under tree crowns are found from the last returns; without them (or
+        where every pulse has one) a wall needs open sky over part of it.
     """
     p = params or AutoParams()
     xyz = np.asarray(xyz, float)
+    if returns is not None:
+        number, count = (np.asarray(a) for a in returns)
+        if number.shape != (len(xyz),) or count.shape != (len(xyz),):
+            raise InputError(f"returns need one return number and one count per point ({len(xyz)})")
+        returns = (number, count) if (count > 1).any() else None
     ground = np.zeros(len(xyz), bool)
     keep = np.flatnonzero(~low_outliers(xyz))
     pts = xyz[keep]
@@ -154,7 +168,8 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
             break
         current = np.where(found, idx, current)
         passes = p.stage_passes
-    is_ground |= _walls(grid, pts, h, is_ground, p)
+    kept_returns = None if returns is None else (returns[0][keep], returns[1][keep])
+    is_ground |= _walls(grid, pts, h, is_ground, p, kept_returns)
     # One point 1-3 m under all the ground around it passed the 3 m outlier test; it is no terrain.
     is_ground &= ~ground_spikes(pts, is_ground, cells=cells)
     # Multipath scatter under a void, tens of metres down: groups no other test takes.
@@ -164,26 +179,46 @@ def auto_ground(xyz: NDArray[np.float64], *, params: AutoParams | None = None) -
 
 
 def _walls(
-    grid: Grid, pts: NDArray[np.float64], h: NDArray[np.float64], is_ground: NDArray[np.bool_], p: AutoParams
+    grid: Grid,
+    pts: NDArray[np.float64],
+    h: NDArray[np.float64],
+    is_ground: NDArray[np.bool_],
+    p: AutoParams,
+    returns: tuple[NDArray[np.integer[Any]], NDArray[np.integer[Any]]] | None,
 ) -> NDArray[np.bool_]:
     """Points of free-standing walls (:func:`ingest.ground.earthworks.narrow_walls`), from each
-    point's height ``h`` above the settled ground surface."""
+    point's height ``h`` above the settled ground surface and, where known, each point's return
+    number and its pulse's number of returns."""
     low = ~is_ground & (h > p.wall_least_height) & (h <= p.earthwork_height)
     row, col = grid.index(pts[:, :2])
+    higher = h > p.earthwork_height
+    tall = np.zeros(grid.shape, bool)
+    hidden = None
+    if returns is None:
+        # Cells with a point higher than any wall: roofs or crowns; both the band beside a building
+        # and a band under trees have them close by, and leaves among a band's points are no wall's top.
+        tall[row[higher], col[higher]] = True
+    else:
+        # A crown lets pulses through to the wall under it, a roof does not: a wall's top is a last
+        # return, and only cells whose high points are mostly last returns are roofs.
+        number, count = returns
+        last = number >= count
+        low &= last
+        flat = row * grid.shape[1] + col
+        high = np.bincount(flat[higher], minlength=tall.size)
+        solid = np.bincount(flat[higher & last], minlength=tall.size)
+        tall = (2 * solid > high).reshape(grid.shape)
+        hidden = np.zeros(grid.shape, bool)
     band = np.zeros(grid.shape, bool)
     band[row[low], col[low]] = True
     top = np.zeros(grid.shape)
     np.maximum.at(top, (row[low], col[low]), h[low])
-    # Cells with a point higher than any wall: roofs or crowns; both the band beside a building and
-    # a band under trees have them close by, and leaves among a band's points are no wall's top.
-    tall = np.zeros(grid.shape, bool)
-    higher = h > p.earthwork_height
-    tall[row[higher], col[higher]] = True
     walls = narrow_walls(
         band,
         top,
         tall,
         cell=grid.cell,
+        hidden=hidden,
         min_length=p.wall_length,
         min_ratio=p.earthwork_ratio,
         max_width=p.wall_width,
