@@ -149,6 +149,12 @@ def test_short_wide_and_high_bands_are_no_walls():
     ],
 )
 def test_the_default_filter_keeps_a_wall_it_used_to_cut(seed, height):
+    cloud, top = _wall_top(seed, height)
+    assert auto_ground(cloud.xyz)[top].mean() > 0.8
+
+
+def _wall_top(seed, height):
+    """A synthetic scene's cloud and the ground points on the upper half of its wall of ``height``."""
     scene = make_scene(seed=seed, size=300)
     wall = next(f for f in scene.features if f.kind == "wall" and abs(f.size - height) < 0.01)
     cloud = sample(scene, density=4, seed=seed)
@@ -156,7 +162,7 @@ def test_the_default_filter_keeps_a_wall_it_used_to_cut(seed, height):
         feature_offset(wall, cloud.xyz[:, 0], cloud.xyz[:, 1]) > 0.5 * wall.size
     )
     assert top.sum() > 50
-    assert auto_ground(cloud.xyz)[top].mean() > 0.8
+    return cloud, top
 
 
 def _scene_with_a_band(cover: str, *, seed: int = 0):
@@ -209,13 +215,7 @@ def test_returns_of_single_return_pulses_change_nothing():
 
 @pytest.mark.parametrize(("seed", "height"), [(1, 1.04)])  # crowns beside it made it a building's band
 def test_the_default_filter_keeps_a_wall_beside_crowns_given_the_returns(seed, height):
-    scene = make_scene(seed=seed, size=300)
-    wall = next(f for f in scene.features if f.kind == "wall" and abs(f.size - height) < 0.01)
-    cloud = sample(scene, density=4, seed=seed)
-    top = (cloud.classification == GROUND) & (
-        feature_offset(wall, cloud.xyz[:, 0], cloud.xyz[:, 1]) > 0.5 * wall.size
-    )
-    assert top.sum() > 50
+    cloud, top = _wall_top(seed, height)
     assert auto_ground(cloud.xyz)[top].mean() < 0.2
     # the cloud's own returns reach the filter
     assert classify_ground(cloud, exclude=())[top].mean() > 0.8
