@@ -16,6 +16,9 @@ _NEAREST: list[tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]]] =
 _NEAREST_MAX = 16_000_000
 
 
+Lines = NDArray[np.floating[Any]]  # one value per hole
+
+
 def fill_nearest(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
     """Replace NaN cells by the value of the nearest filled cell."""
     holes = np.isnan(raster)
@@ -75,11 +78,23 @@ def fill_lines(raster: NDArray[np.floating[Any]], *, passes: int = 1) -> NDArray
     """
     for _ in range(passes - 1):
         raster = fill_lines(raster)
-    holes = np.flatnonzero(np.isnan(raster))
+    holes, *lines = lines_at_holes(raster)
     if len(holes) == 0:
         return raster
-    shape = raster.shape
-    rows, cols = shape[-2], shape[-1]
+    out = raster.copy()
+    out.reshape(-1)[holes] = weighted_lines(*lines)
+    return out
+
+
+def lines_at_holes(raster: NDArray[np.floating[Any]]) -> tuple[NDArray[np.intp], Lines, Lines, Lines, Lines]:
+    """The holes of a raster or a stack of rasters (flat indices, ascending) and, at each, the
+    straight line along its row and along its column (value, gap length; NaN and inf where the
+    line is not bracketed): ``holes, v_row, g_row, v_col, g_col``."""
+    holes = np.flatnonzero(np.isnan(raster))
+    if len(holes) == 0:
+        empty = np.zeros(0, raster.dtype)
+        return holes, empty, empty, empty, empty
+    rows, cols = raster.shape[-2], raster.shape[-1]
     # A stack is one tall raster for the rows and one wide raster for the columns; only
     # the holes are interpolated.
     flat = raster.reshape(-1, rows, cols)
@@ -93,9 +108,7 @@ def fill_lines(raster: NDArray[np.floating[Any]], *, passes: int = 1) -> NDArray
     v_turned, g_turned = across_rows(turned, turned_holes)
     v_col, g_col = np.empty(flat.size, v_turned.dtype), np.empty(flat.size, g_turned.dtype)
     v_col[back], g_col[back] = v_turned, g_turned
-    out = raster.copy()
-    out.reshape(-1)[holes] = weighted_lines(v_row, g_row, v_col[holes], g_col[holes])
-    return out
+    return holes, v_row, g_row, v_col[holes], g_col[holes]
 
 
 def weighted_lines(

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.ground.fill import across_rows, weighted_lines
+from ingest.ground.fill import across_rows, lines_at_holes, weighted_lines
 
 
 def touched_runs(raster: NDArray[np.floating[Any]], changed: NDArray[np.intp]) -> NDArray[np.intp]:
@@ -84,17 +84,12 @@ class LineFill:
         return out.reshape(raster.shape).copy()
 
     def _full(self, raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
-        rows, cols = raster.shape
-        holes = np.flatnonzero(np.isnan(raster))
-        self._v_row, self._g_row = (np.full(raster.size, np.nan, raster.dtype) for _ in range(2))
-        self._v_col, self._g_col = (np.full(raster.size, np.nan, raster.dtype) for _ in range(2))
-        self._v_row[holes], self._g_row[holes] = across_rows(raster, holes)
-        turned = np.ascontiguousarray(raster.T)
-        turned_holes = np.flatnonzero(np.isnan(turned))
-        c, r = np.divmod(turned_holes, rows)
-        back = r * cols + c
-        self._v_col[back], self._g_col[back] = across_rows(turned, turned_holes)
+        holes, *lines = lines_at_holes(raster)
+        kept = [np.full(raster.size, np.nan, raster.dtype) for _ in lines]
+        for whole, at_holes in zip(kept, lines):
+            whole[holes] = at_holes
+        self._v_row, self._g_row, self._v_col, self._g_col = kept
         out = raster.copy().ravel()
-        out[holes] = weighted_lines(self._v_row[holes], self._g_row[holes], self._v_col[holes], self._g_col[holes])
+        out[holes] = weighted_lines(*lines)
         self._last, self._out = raster.copy(), out
         return out.reshape(raster.shape).copy()
