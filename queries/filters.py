@@ -23,11 +23,12 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ingest.tiles import TileIndex
-from tdb.categories import FEATURE_NAMES, SUBPART_UV, all_categories
+from queries.facing import facing_planes
+from tdb.categories import FEATURE_NAMES, SUBPART_UV, all_categories, by_code
 from tdb.errors import FilterError
 
 # Feature of each uint8 code (-1 for codes that are no category: no data, absent).
-FEATURES = np.array([c.feature for c in all_categories()] + [-1] * (256 - len(all_categories())))
+FEATURES = by_code("feature")
 
 
 @cache
@@ -72,6 +73,7 @@ class Filter:
     max_shoulder: float | None = None
     broad_width: float | None = None  # queries.profile: at least this wide is broad, whatever the shoulder
     around: bool = False  # queries.relief: the extreme stands out all round (mound, pit), not across a line
+    facing: bool = False  # queries.facing: plane tiles facing each other across an edge join as well
 
 
 @cache
@@ -123,6 +125,7 @@ def parse_filter(doc: dict[str, Any]) -> Filter:
         doc.get("max_shoulder"),
         doc.get("broad_width"),
         bool(doc.get("around", False)),
+        bool(doc.get("facing", False)),
     )
 
 
@@ -198,11 +201,30 @@ def _link_tables() -> dict[tuple[int, int], NDArray[np.bool_]]:
     return tables
 
 
-def components(
+def candidates(
     xg: NDArray[np.int64], yg: NDArray[np.int64], code: NDArray[np.uint8], flt: Filter, level: int
+) -> NDArray[np.bool_]:
+    """Tiles that may be part of an object under ``flt``: those of its features and, with
+    ``flt.facing``, inclined planes that face each other across an edge (falling towards each
+    other for a depth, rising for a height)."""
+    ok = np.isin(FEATURES[code], list(flt.features))
+    if flt.facing:
+        ok |= facing_planes(xg, yg, code, level=level, falling=flt.measure == "depth")
+    return ok
+
+
+def components(
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    code: NDArray[np.uint8],
+    flt: Filter,
+    level: int,
+    *,
+    accept: NDArray[np.bool_] | None = None,
 ) -> list[NDArray[np.intp]]:
-    """Groups of tile indices forming one object under ``flt``."""
-    sel = np.flatnonzero(np.isin(FEATURES[code], list(flt.features)))
+    """Groups of tile indices forming one object under ``flt``, among the tiles ``accept``
+    marks (default: :func:`candidates`)."""
+    sel = np.flatnonzero(candidates(xg, yg, code, flt, level) if accept is None else accept)
     if len(sel) == 0:
         return []
     ti, tj = np.asarray(xg)[sel] // level, np.asarray(yg)[sel] // level

@@ -7,7 +7,16 @@ import shapely
 from numpy.typing import NDArray
 
 from queries.centreline import centrelines, elongation
-from queries.filters import BREAK_LINES, FEATURES, Filter, Match, builtin_filters, components, tile_lines
+from queries.filters import (
+    BREAK_LINES,
+    FEATURES,
+    Filter,
+    Match,
+    builtin_filters,
+    candidates,
+    components,
+    tile_lines,
+)
 from queries.profile import Nodes, form_width
 from queries.relief import NodeLattice, node_lattice, tile_relief
 from queries.shoulder import shoulders
@@ -63,7 +72,7 @@ def find(
     flt = resolve(name_or_filter)
     lv = level or flt.level
     xg, yg, code = db.tiles(version, level=lv, bbox=bbox)
-    if not np.isin(FEATURES[code], list(flt.features)).any():
+    if not candidates(xg, yg, code, flt, lv).any():
         return []
     grow = REACH_TILES * lv + lv
     px, py, pz, _ = db.points(
@@ -90,7 +99,10 @@ def match_tiles(
     carry their tiles and measure only (empty geometry, length NaN, no shoulder test: a
     shoulder needs the centre line): what typing needs, where a ridge and a wall are one form."""
     lv = level
-    cand = np.flatnonzero(np.isin(FEATURES[code], list(flt.features)))
+    cand = np.flatnonzero(candidates(xg, yg, code, flt, lv))
+    # A pair of facing planes is weaker evidence than a valley in a tile: it must stand out by
+    # the filter's whole measure, not a share of it, or gentle hollows chain distinct forms
+    share = np.where(np.isin(FEATURES[code[cand]], list(flt.features)), TILE_SHARE, 1.0)
     if len(cand) == 0:
         return []
     ex, ey, relief = tile_relief(
@@ -104,10 +116,10 @@ def match_tiles(
     )
     with np.errstate(invalid="ignore"):
         # NaN (terrain beside unknown) is kept, but a closed form must be seen all round
-        ok = relief >= TILE_SHARE * flt.min_measure if flt.around else ~(relief < TILE_SHARE * flt.min_measure)
+        ok = relief >= share * flt.min_measure if flt.around else ~(relief < share * flt.min_measure)
     keep, relief, ex, ey = cand[ok], relief[ok], ex[ok], ey[ok]
     xg, yg, code = xg[keep], yg[keep], code[keep]
-    groups = components(xg, yg, code, flt, lv)
+    groups = components(xg, yg, code, flt, lv, accept=np.ones(len(keep), bool))
     found: list[tuple[NDArray[np.intp], float]] = []
     for g in groups:
         if not np.isfinite(relief[g]).any():
@@ -144,6 +156,8 @@ def match_tiles(
             if geom.is_empty:  # no extreme line: follow the break lines
                 lines = [line for line in tile_lines(xg[g], yg[g], code[g], lv) if line is not None]
                 geom = shapely.line_merge(shapely.union_all(lines))
+            if geom.is_empty:  # planes falling to one corner: a hollow, no line
+                continue
             length = float(geom.length)
         else:
             # tiles never overlap: a coverage union is exact and much faster than a general one

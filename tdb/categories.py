@@ -125,6 +125,13 @@ def all_categories() -> tuple[Category, ...]:
     return tuple(cats)
 
 
+def by_code(attribute: str, *, missing: int = -1) -> NDArray[np.int64]:
+    """(256,) one sub-indicator (``"feature"``, ``"inclination"``) of every uint8 code, ``missing``
+    for codes that are no category (no data), so that ``by_code(...)[codes]`` is one gather."""
+    cats = all_categories()
+    return np.array([getattr(c, attribute) for c in cats] + [missing] * (256 - len(cats)), np.int64)
+
+
 def subgrid_uv(n: int) -> NDArray[np.float64]:
     """(n*n, 2) sub-grid node positions in the unit tile, row-major from the south-west."""
     t = np.linspace(0, 1, n)
