@@ -203,14 +203,15 @@ def _link_tables() -> dict[tuple[int, int], NDArray[np.bool_]]:
 
 def candidates(
     xg: NDArray[np.int64], yg: NDArray[np.int64], code: NDArray[np.uint8], flt: Filter, level: int
-) -> NDArray[np.bool_]:
-    """Tiles that may be part of an object under ``flt``: those of its features and, with
-    ``flt.facing``, inclined planes that face each other across an edge (falling towards each
-    other for a depth, rising for a height)."""
-    ok = np.isin(FEATURES[code], list(flt.features))
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Tiles that may be part of an object under ``flt``: those of its features, and (weaker
+    evidence, only with ``flt.facing``) the other inclined planes that face each other across an
+    edge (falling towards each other for a depth, rising for a height)."""
+    own = np.isin(FEATURES[code], list(flt.features))
+    facing = np.zeros_like(own)
     if flt.facing:
-        ok |= facing_planes(xg, yg, code, level=level, falling=flt.measure == "depth")
-    return ok
+        facing = facing_planes(xg, yg, code, level=level, falling=flt.measure == "depth") & ~own
+    return own, facing
 
 
 def components(
@@ -224,7 +225,7 @@ def components(
 ) -> list[NDArray[np.intp]]:
     """Groups of tile indices forming one object under ``flt``, among the tiles ``accept``
     marks (default: :func:`candidates`)."""
-    sel = np.flatnonzero(candidates(xg, yg, code, flt, level) if accept is None else accept)
+    sel = np.flatnonzero(np.logical_or(*candidates(xg, yg, code, flt, level)) if accept is None else accept)
     if len(sel) == 0:
         return []
     ti, tj = np.asarray(xg)[sel] // level, np.asarray(yg)[sel] // level

@@ -9,7 +9,6 @@ from numpy.typing import NDArray
 from queries.centreline import centrelines, elongation
 from queries.filters import (
     BREAK_LINES,
-    FEATURES,
     Filter,
     Match,
     builtin_filters,
@@ -72,7 +71,8 @@ def find(
     flt = resolve(name_or_filter)
     lv = level or flt.level
     xg, yg, code = db.tiles(version, level=lv, bbox=bbox)
-    if not candidates(xg, yg, code, flt, lv).any():
+    evidence = candidates(xg, yg, code, flt, lv)
+    if not np.logical_or(*evidence).any():
         return []
     grow = REACH_TILES * lv + lv
     px, py, pz, _ = db.points(
@@ -81,7 +81,7 @@ def find(
         bbox=None if bbox is None else (bbox[0] - grow, bbox[1] - grow, bbox[2] + grow, bbox[3] + grow),
         ordered=False,
     )
-    return match_tiles(xg, yg, code, node_lattice(px, py, pz, lv), flt, level=lv)
+    return match_tiles(xg, yg, code, node_lattice(px, py, pz, lv), flt, level=lv, evidence=evidence)
 
 
 def match_tiles(
@@ -93,18 +93,21 @@ def match_tiles(
     *,
     level: int,
     shapes: bool = True,
+    evidence: tuple[NDArray[np.bool_], NDArray[np.bool_]] | None = None,
 ) -> list[Match]:
     """The objects ``flt`` finds among the tiles, with ``lattice`` holding the stored points
     around them. Without ``shapes`` the matches
     carry their tiles and measure only (empty geometry, length NaN, no shoulder test: a
-    shoulder needs the centre line): what typing needs, where a ridge and a wall are one form."""
+    shoulder needs the centre line): what typing needs, where a ridge and a wall are one form.
+    ``evidence`` is :func:`queries.filters.candidates` of these tiles, where the caller has it."""
     lv = level
-    cand = np.flatnonzero(candidates(xg, yg, code, flt, lv))
-    # A pair of facing planes is weaker evidence than a valley in a tile: it must stand out by
-    # the filter's whole measure, not a share of it, or gentle hollows chain distinct forms
-    share = np.where(np.isin(FEATURES[code[cand]], list(flt.features)), TILE_SHARE, 1.0)
+    own, facing = evidence if evidence is not None else candidates(xg, yg, code, flt, lv)
+    cand = np.flatnonzero(own | facing)
     if len(cand) == 0:
         return []
+    # A pair of facing planes is weaker evidence than a valley in a tile: it must stand out by
+    # the filter's whole measure, not a share of it, or gentle hollows chain distinct forms
+    share = np.where(own[cand], TILE_SHARE, 1.0)
     ex, ey, relief = tile_relief(
         lattice,
         xg[cand],
