@@ -48,12 +48,19 @@ def test_the_fit_answers_within_its_bounds_for_any_samples(offset, relief):
     assert 0 <= got_width <= 6 and 0 <= got_depth <= 6
 
 
-def test_blur_comes_off_in_quadrature():
-    offset = np.linspace(-3, 3, 400)
-    relief = 0.8 * np.clip(1 - np.abs(offset) / 1.5, 0, None)  # 3 m wide V
-    _, raw = fit_profile(offset, relief, blur=0.0)
-    _, less = fit_profile(offset, relief, blur=1.0)
-    assert raw == pytest.approx(3.0, abs=0.1) and less == pytest.approx(np.sqrt(raw**2 - 1.0), abs=1e-9)
+@pytest.mark.parametrize("shape", ["V", "U"])
+def test_the_fit_sees_through_a_known_blur(shape):
+    fine = np.linspace(-6, 6, 2401)
+    u = np.clip(np.abs(fine) / 1.0, 0, 1)  # 2 m wide, 0.8 m deep
+    sharp = 0.8 * ((1 - u) if shape == "V" else (1 - u**4))
+    kernel = np.exp(-0.5 * (np.linspace(-2, 2, 801) / 0.3) ** 2)
+    blurred = np.convolve(sharp, kernel / kernel.sum(), mode="same")
+    offset = np.linspace(-3, 3, 121)
+    relief = np.interp(offset, fine, blurred)
+    depth, width = fit_profile(offset, relief, blur=0.3)
+    assert depth == pytest.approx(0.8, abs=0.03) and width == pytest.approx(2.0, abs=0.1)
+    naive_depth, naive_width = fit_profile(offset, relief, blur=0.0)
+    assert abs(naive_depth - 0.8) + abs(naive_width - 2.0) > abs(depth - 0.8) + abs(width - 2.0)
 
 
 def test_smoothing_keeps_a_straight_line_and_its_length():
