@@ -40,7 +40,8 @@ MIN_PART = 8.0  # m: a shorter part (a junction's stub) takes its match's width 
 BAND = 3.0  # m either side of the line whose nodes sample the form; widths are read up to twice this
 SIDE = (3.5, 6.0)  # m off the line: the terrain beside, as a plane
 BLUR = 0.2  # m, the standard deviation of the Gaussian by which the stored surface blurs a section
-TAPS = 5  # Gauss–Hermite points of that blur
+_TAPS, _TAP_WEIGHTS = np.polynomial.hermite_e.hermegauss(5)  # the blur, for a unit Gaussian
+_TAP_WEIGHTS = _TAP_WEIGHTS / _TAP_WEIGHTS.sum()
 SHAPES = (1.0, 4.0)  # profile exponents: V, flat-bottomed
 CENTRE_WINDOW = 8.0  # m either side over which a match's centre line is averaged
 MIN_SAMPLES = 10
@@ -82,8 +83,8 @@ def fit_profile(
     # the start: half the width at half the height, where the samples say
     half = np.abs(offset[relief > top / 2])
     h0 = float(np.clip(2 * np.median(half) if len(half) else 1.0, 0.3, 3.5))
-    taps, weight = np.polynomial.hermite_e.hermegauss(TAPS)
-    taps, weight = taps * blur, weight / weight.sum()
+    # without a blur one tap is the profile itself
+    taps, weight = (_TAPS * blur, _TAP_WEIGHTS) if blur else (np.zeros(1), np.ones(1))
     best: tuple[float, float, float] | None = None
     for p in SHAPES:
 
