@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.categorise import categorise
-from ingest.ground.tin import surface_height, triangulate
+from ingest.mesh import kept_mesh, mesh_height
 from ingest.reduce import budget_for, kept_nodes, level_bit, paper_keep, refine
 from ingest.tiles import LEVELS, node_grid
 from tdb.categories import NO_DATA
@@ -78,14 +78,16 @@ def build(
     z = dtm.sample(x, y)
     good = ~np.isnan(z)
     model = TerrainModel(out, x[good], y[good], z[good], mask[good])
-    return TerrainModel(model.levels, model.x, model.y, model.z, model.n, reduction_stats(dtm, model))
+    return TerrainModel(model.levels, model.x, model.y, model.z, model.n, reduction_stats(dtm, model, n=n))
 
 
-def reduction_stats(dtm: Raster, model: TerrainModel, *, level_bit_mask: int = 1) -> dict[str, Any]:
-    """Share of dense posts removed and the vertical error of the surface rebuilt from the kept 2 m points."""
+def reduction_stats(dtm: Raster, model: TerrainModel, *, n: int = SUBGRID) -> dict[str, Any]:
+    """Share of dense posts removed and the vertical error of the surface rebuilt from the kept 2 m
+    points and the 2 m categories (:mod:`ingest.mesh`)."""
     valid = ~np.isnan(dtm.data)
     posts = int(valid.sum())
-    keep = (model.n & level_bit_mask) > 0
+    finest = min(model.levels)
+    keep = (model.n & level_bit(finest)) > 0
     stats: dict[str, Any] = {
         "dense_posts": posts,
         "kept_points": len(model.x),
@@ -96,7 +98,18 @@ def reduction_stats(dtm: Raster, model: TerrainModel, *, level_bit_mask: int = 1
         xs, ys = dtm.centres()
         gx, gy = np.meshgrid(xs, ys)
         q = np.column_stack([gx[valid], gy[valid]])
-        rebuilt, _ = surface_height(triangulate(np.column_stack([model.x[keep], model.y[keep]])), model.z[keep], q)
+        tiles = model.levels[finest]
+        mesh = kept_mesh(
+            model.x[keep],
+            model.y[keep],
+            model.z[keep],
+            xg=tiles.xg,
+            yg=tiles.yg,
+            code=tiles.code,
+            level=finest,
+            n=n,
+        )
+        rebuilt = mesh_height(mesh, q)
         err = rebuilt - dtm.data[valid]
         ok = ~np.isnan(err)
         stats["rmse_m"] = round(float(np.sqrt(np.mean(err[ok] ** 2))), 4)

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ingest.ground.tin import surface_height, triangulate
+from ingest.mesh import KeptMesh, kept_mesh, mesh_height
 from tdb.database import Area, Database
 from tdb.errors import InputError, TdbIOError
 from tdb.raster import Raster
@@ -21,20 +21,25 @@ def area_surface(
     crs: Any = None,
     bbox: tuple[float, float, float, float] | None = None,
 ) -> Raster:
-    """The surface rebuilt from the area's points (linear TIN), on a grid of ``cell`` m
-    (default: the level's sub-grid spacing, level / 4) over ``bbox`` (default: the area's own;
-    a smaller one keeps the grid's edge cells inside the triangulation)."""
-    if len(area.x) < 3:
-        raise InputError(f"the area holds {len(area.x)} points; nothing to triangulate")
+    """The surface rebuilt from the area's points (linear TIN, corner-only tiles split as their
+    categories imply: :mod:`ingest.mesh`), on a grid of ``cell`` m (default: the level's sub-grid
+    spacing, level / 4) over ``bbox`` (default: the area's own; a smaller one keeps the grid's
+    edge cells inside the triangulation)."""
+    mesh = area_mesh(area)
     cell = cell or area.level / 4
-    xyz = np.column_stack([area.x, area.y, area.z])
-    tri = triangulate(xyz[:, :2])
     x0, y0, x1, y1 = bbox or area.bbox
     xs = np.arange(np.ceil(x0 / cell) * cell, x1 + 1e-9, cell)
     ys = np.arange(np.floor(y1 / cell) * cell, y0 - 1e-9, -cell)
     gx, gy = np.meshgrid(xs, ys)
-    z, _ = surface_height(tri, xyz[:, 2], np.column_stack([gx.ravel(), gy.ravel()]))
+    z = mesh_height(mesh, np.column_stack([gx.ravel(), gy.ravel()]))
     return Raster(z.reshape(gx.shape), float(xs[0] - cell / 2), float(ys[0] + cell / 2), cell, crs)
+
+
+def area_mesh(area: Area) -> KeptMesh:
+    """The mesh of the area's points and tiles; an :class:`InputError` for fewer than three points."""
+    if len(area.x) < 3:
+        raise InputError(f"the area holds {len(area.x)} points; nothing to triangulate")
+    return kept_mesh(area.x, area.y, area.z, xg=area.xg, yg=area.yg, code=area.code, level=area.level)
 
 
 def overview_surface(
@@ -56,10 +61,8 @@ def overview_surface(
 def write_ply(path: str | os.PathLike[str], area: Area) -> None:
     """The area's points as a triangulated mesh in ASCII PLY (coordinates relative to the bbox corner
     would lose georeference, so they are written as they are, in metres)."""
+    faces = area_mesh(area).faces
     xyz = np.column_stack([area.x, area.y, area.z])
-    if len(xyz) < 3:
-        raise InputError("fewer than 3 points in the area; no mesh")
-    faces = triangulate(xyz[:, :2]).simplices
     header = (
         "ply\nformat ascii 1.0\ncomment tdb area of interest\n"
         f"element vertex {len(xyz)}\nproperty double x\nproperty double y\nproperty double z\n"
