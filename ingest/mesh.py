@@ -136,12 +136,11 @@ def kept_mesh(
     sw, se, nw, ne = corner_idx.T
     tri_a = np.where(anti[:, None], np.column_stack([sw, se, nw]), np.column_stack([sw, se, ne]))
     tri_b = np.where(anti[:, None], np.column_stack([se, ne, nw]), np.column_stack([sw, ne, nw]))
-    order = np.argsort(halves, kind="stable")
-    members = order[halves[order] >= 0]  # simplices sorted by their tile: two per tile
+    members = cand[ok]
+    members = members[np.argsort(halves[members], kind="stable")]  # sorted by their tile: two per tile
     faces[members[0::2]] = tri_a
     faces[members[1::2]] = tri_b
-    origin = np.column_stack([key[:, 0], key[:, 1]]) * step
-    return KeptMesh(tri, np.asarray(z, np.float64), faces, halves, origin.astype(np.float64), corners, anti, level)
+    return KeptMesh(tri, np.asarray(z, np.float64), faces, halves, key * step, corners, anti, level)
 
 
 def mesh_height(mesh: KeptMesh, xy: NDArray[np.float64]) -> NDArray[np.float64]:

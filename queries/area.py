@@ -20,12 +20,14 @@ def area_surface(
     cell: float | None = None,
     crs: Any = None,
     bbox: tuple[float, float, float, float] | None = None,
+    mesh: KeptMesh | None = None,
 ) -> Raster:
     """The surface rebuilt from the area's points (linear TIN, corner-only tiles split as their
     categories imply: :mod:`ingest.mesh`), on a grid of ``cell`` m (default: the level's sub-grid
     spacing, level / 4) over ``bbox`` (default: the area's own; a smaller one keeps the grid's
-    edge cells inside the triangulation)."""
-    mesh = area_mesh(area)
+    edge cells inside the triangulation). ``mesh``: the area's, where the caller has it already
+    (:func:`area_mesh`)."""
+    mesh = mesh or area_mesh(area)
     cell = cell or area.level / 4
     x0, y0, x1, y1 = bbox or area.bbox
     xs = np.arange(np.ceil(x0 / cell) * cell, x1 + 1e-9, cell)
@@ -58,10 +60,11 @@ def overview_surface(
     return area_surface(db.aoi(grown, level=level, version=version), cell=cell, crs=db.crs(version), bbox=bbox)
 
 
-def write_ply(path: str | os.PathLike[str], area: Area) -> None:
+def write_ply(path: str | os.PathLike[str], area: Area, *, mesh: KeptMesh | None = None) -> None:
     """The area's points as a triangulated mesh in ASCII PLY (coordinates relative to the bbox corner
-    would lose georeference, so they are written as they are, in metres)."""
-    faces = area_mesh(area).faces
+    would lose georeference, so they are written as they are, in metres); ``mesh`` as for
+    :func:`area_surface`."""
+    faces = (mesh or area_mesh(area)).faces
     xyz = np.column_stack([area.x, area.y, area.z])
     header = (
         "ply\nformat ascii 1.0\ncomment tdb area of interest\n"

@@ -46,7 +46,7 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
 
     import tdb
     from ingest.pipeline import ingest
-    from queries.area import area_surface, write_ply
+    from queries.area import area_mesh, area_surface, write_ply
     from tdb.geotiff import write_geotiff
     from tdb.pictures import area_picture, category_atlas
 
@@ -71,7 +71,8 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
         t = step("area of interest: mesh, surface and category picture (tdb aoi)")
         x0, y0 = scene.bounds[:2]
         area = db.aoi((x0 + 25, y0 + 25, x0 + 225, y0 + 225), level=2, version="2020")
-        surface = area_surface(area, crs=db.crs("2020"))
+        mesh = area_mesh(area)
+        surface = area_surface(area, crs=db.crs("2020"), mesh=mesh)
         from queries.changes import detect, level_of_detection
         from queries.dod import difference_of_surfaces
         from queries.run import feature_collection, run
@@ -100,7 +101,7 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
             "→ diff.geojson, diff.png (over the DEM of difference, dod.tif); both layers in results.gpkg "
             "(QGIS); true changes are in changes.geojson",
         )
-    write_ply(out / "aoi.ply", area)
+    write_ply(out / "aoi.ply", area, mesh=mesh)
     write_geotiff(out / "aoi.tif", surface)
     area_picture(out / "aoi.png", area, surface)
     category_atlas(out / "atlas.png")

@@ -33,15 +33,16 @@ def command(
       tdb aoi --db park.tdb --bbox 500000,5500000,500400,5500400 --level 8 --out coarse
     """
     import tdb
-    from queries.area import area_surface, write_ply
+    from queries.area import area_mesh, area_surface, write_ply
     from tdb.geotiff import write_geotiff
     from tdb.pictures import area_picture
 
     with tdb.open(db_path) as db:
         area = db.aoi(bbox, level=int(level), version=version)
         crs = db.crs(area.version)
-    surface = area_surface(area, crs=crs)
-    write_ply(out.with_suffix(".ply"), area)
+    mesh = area_mesh(area)
+    surface = area_surface(area, crs=crs, mesh=mesh)
+    write_ply(out.with_suffix(".ply"), area, mesh=mesh)
     write_geotiff(out.with_suffix(".tif"), surface)
     area_picture(out.with_suffix(".png"), area, surface)
     click.echo(f"{len(area.code):,} tiles, {len(area.x):,} points → {out}.ply, {out}.tif, {out}.png")
