@@ -16,10 +16,10 @@ import numpy as np
 
 from benchmarks.common import DATA, save
 from ingest.ground.fill import fill_nearest
-from ingest.ground.tin import surface_height, triangulate
 from ingest.pipeline import survey
 from ingest.readers import read
 from tdb.classes import NOISE
+from tdb.tin import surface_height, triangulate
 
 FILES = [
     ("las", f)

@@ -13,9 +13,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.ground.grids import MAX_CELLS
-from ingest.ground.tin import surface_height, triangulate
 from tdb.errors import InputError
 from tdb.raster import Raster
+from tdb.tin import surface_height, triangulate
 
 DEFAULT_RESOLUTION = 0.5
 

@@ -16,11 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import Delaunay
 
-from ingest.ground.tin import locate, surface_height, triangulate
 from ingest.tiles import TileIndex
 from tdb.categories import NO_DATA, subgrid_uv, templates
+from tdb.tin import Tin, locate, surface_height, triangulate
 
 
 def corner_nodes(n: int) -> NDArray[np.intp]:
@@ -68,7 +67,7 @@ class KeptMesh:
     it lies in (index into ``origin``, ``corners`` and ``anti``), or −1.
     """
 
-    tri: Delaunay
+    tri: Tin
     z: NDArray[np.float64]
     faces: NDArray[np.intp]
     halves: NDArray[np.intp]

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from scipy.spatial import Delaunay
 
 from ingest.ground.ground_tin import GroundTin
-from ingest.ground.tin import barycentric
+from tdb.tin import barycentric
 
 BOX = np.array([[-10, -10, 0], [110, -10, 0], [110, 110, 0], [-10, 110, 0]], float)
 
@@ -39,7 +39,7 @@ def _grow(points, rounds, free_xy, rng):
     for batch in np.array_split(rng.permutation(len(rest)), rounds):
         new = rest[batch]
         tin, simplex = tin.insert(new, tin_locate(tin, new[:, :2]), free_xy, simplex)
-        local += tin.qhull is None
+        local += tin.tin is None
     return tin, simplex, local
 
 
@@ -83,3 +83,19 @@ def test_points_on_a_grid_and_repeated_returns_still_make_a_valid_tin(jitter):
     assert _holds(tin, simplex, free_xy).all()
     used = np.unique(tin.simplices)
     assert len(np.unique(np.round(tin.points[used, :2], 9), axis=0)) == len(used)
+
+
+def test_closed_form_transforms_match_scipys():
+    """The numpy transforms give the barycentrics scipy's LAPACK-based ones give."""
+    from scipy.spatial import Delaunay
+
+    from tdb.tin import transforms, triangulate
+
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(0, 100, (400, 2)) + [500_000.0, 5_400_000.0]
+    tin = triangulate(xy)
+    scipy_tri = Delaunay(xy - tin.origin)
+    assert np.array_equal(scipy_tri.simplices, tin.simplices)
+    np.testing.assert_allclose(transforms(xy - tin.origin, tin.simplices), scipy_tri.transform, rtol=1e-9, atol=1e-9)
+    lam = barycentric(tin, np.arange(len(tin.simplices)), xy[tin.simplices].mean(axis=1))
+    np.testing.assert_allclose(lam, 1 / 3, atol=1e-9)

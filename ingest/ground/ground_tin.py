@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
-from ingest.ground.tin import locate, triangulate
+from tdb.tin import Tin, locate, locate_in, transforms, triangulate
 
 LOCAL_SHARE = 0.3  # rebuild whole where the cavity holds more of the triangles than this
 
@@ -29,7 +29,7 @@ class GroundTin:
     """Delaunay TIN of ``points`` (V, 3), triangulated in plan on coordinates less ``origin``.
 
     ``simplices`` and ``transform`` have the layout of :class:`scipy.spatial.Delaunay`'s, so
-    :func:`ingest.ground.tin.barycentric` takes a ``GroundTin`` as it takes a ``Delaunay``.
+    :func:`tdb.tin.barycentric` takes a ``GroundTin`` as it takes a ``Delaunay``.
     """
 
     points: NDArray[np.float64]
@@ -38,21 +38,21 @@ class GroundTin:
     transform: NDArray[np.float64]
     centre: NDArray[np.float64]  # (K, 2) circumcentres, local coordinates
     radius2: NDArray[np.float64]  # (K,) squared circumradii
-    qhull: Delaunay | None = None  # the whole triangulation, where it was just built
+    tin: Tin | None = None  # the whole triangulation, where it was just built
 
     @classmethod
     def build(cls, points: NDArray[np.float64]) -> GroundTin:
         points = np.asarray(points, np.float64)
-        tri = triangulate(points[:, :2])
-        simplices = np.asarray(tri.simplices, np.intp)
-        centre, radius2 = _circles(points[:, :2] - tri.origin, simplices)
-        return cls(points, tri.origin, simplices, np.asarray(tri.transform), centre, radius2, tri)
+        tin = triangulate(points[:, :2])
+        simplices = tin.simplices
+        centre, radius2 = _circles(points[:, :2] - tin.origin, simplices)
+        return cls(points, tin.origin, simplices, tin.transform, centre, radius2, tin)
 
     def locate(self, xy: NDArray[np.float64]) -> NDArray[np.intp]:
         """Triangle of each plan position (−1 outside); right after :meth:`build` only."""
-        if self.qhull is None:
+        if self.tin is None:
             raise RuntimeError("locate needs a freshly built TIN")
-        return locate(self.qhull, xy)
+        return locate(self.tin, xy)
 
     def insert(
         self,
@@ -132,7 +132,7 @@ def _local_insert(
     if in_cavity.sum() != len(bad):
         return None
     centroid = all_xy[after.simplices].mean(axis=1)
-    s = before.find_simplex(centroid)
+    s = locate_in(before, centroid)
     inside = (s >= 0) & in_cavity[np.maximum(s, 0)]
     # Each point added inside a triangulated polygon adds two triangles.
     if len(after.coplanar) or inside.sum() != len(bad) + 2 * len(added):
@@ -148,7 +148,7 @@ def _local_insert(
         points,
         tin.origin,
         np.vstack([tin.simplices[keep], fresh]),
-        np.concatenate([tin.transform[keep], after.transform[inside]]),
+        np.concatenate([tin.transform[keep], transforms(all_xy, after.simplices[inside])]),
         np.vstack([tin.centre[keep], centre]),
         np.concatenate([tin.radius2[keep], radius2]),
     )
@@ -157,7 +157,7 @@ def _local_insert(
     out_simplex = row[simplex]
     if moved.any():
         at = xy[moved] - tin.origin
-        local = after.find_simplex(at)
+        local = locate_in(after, at)
         remap = np.full(len(after.simplices), -1, np.intp)
         remap[np.flatnonzero(inside)] = len(keep) - len(bad) + np.arange(int(inside.sum()))
         found = np.where(local >= 0, remap[np.maximum(local, 0)], -1)
@@ -177,7 +177,7 @@ def _nearest_triangle(
     round-off), as ``remap`` numbers it; −1 where none does (or too many positions to search)."""
     if len(xy) * len(among) > 5_000_000:
         return np.full(len(xy), -1, np.intp)
-    t = tri.transform[among]  # (F, 3, 2)
+    t = transforms(tri.points, tri.simplices[among])  # (F, 3, 2)
     b = np.einsum("fij,pfj->pfi", t[:, :2, :], xy[:, None, :] - t[None, :, 2, :])
     least = np.minimum(b.min(axis=2), 1.0 - b.sum(axis=2))  # (P, F): the smallest barycentric
     best = least.argmax(axis=1)

@@ -19,10 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import Delaunay
 
 from ingest.ground.ground_tin import GroundTin
-from ingest.ground.tin import (
+from tdb.tin import (
+    Tin,
     angle_between,
     barycentric,
     cross_pairs,
@@ -130,7 +130,7 @@ def upward(
     corners: NDArray[np.float64],
     ground: NDArray[np.bool_],
     p: SohnParams,
-    tri_all: Delaunay,
+    tri_all: Tin,
 ) -> NDArray[np.bool_]:
     """§4.3: add the MDL-best tetrahedron apex of every triggered triangle until none is found."""
     ground = ground.copy()

@@ -8,9 +8,8 @@ own terrain is done, and memory stays bounded by the tile size.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
-from contextlib import contextmanager
 from multiprocessing import get_context
 
 import numpy as np
@@ -68,12 +67,11 @@ def by_tiles(
         # Largest tiles first: a big tile started last would leave the other workers idle.
         jobs.sort(key=lambda job: -len(job[0]))
         # spawn: a forked child would inherit the parent's threads and locks. One BLAS thread
-        # per worker: OpenBLAS threads of several processes spinning on the same cores made
-        # a 6 s tile take over five minutes.
-        with (
-            _one_thread_each(),
-            ProcessPoolExecutor(min(workers, len(jobs)), mp_context=get_context("spawn")) as pool,
-        ):
+        # per worker: BLAS threads of several processes spinning on the same cores cost
+        # far more than they save on a filter's small linear algebra.
+        with ProcessPoolExecutor(
+            min(workers, len(jobs)), mp_context=get_context("spawn"), initializer=one_blas_thread_here
+        ) as pool:
             results = pool.map(filter_fn, [xyz[near] for near, _ in jobs])
             _gather(out, jobs, results, progress)
     else:
@@ -94,20 +92,12 @@ def _gather(
             progress(done, len(jobs))
 
 
-@contextmanager
-def _one_thread_each() -> Iterator[None]:
-    """Processes started within inherit single-threaded BLAS and OpenMP settings."""
-    names = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
-    saved = {k: os.environ.get(k) for k in names}
-    os.environ.update({k: "1" for k in names})
-    try:
-        yield
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
+def one_blas_thread_here() -> None:
+    """Hold this process's BLAS and OpenMP pools to one thread (a worker's initializer)."""
+    import scipy.linalg  # noqa: F401  (loads scipy's own BLAS, so that the limit reaches it)
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1)
 
 
 def available_cores() -> int:
