@@ -15,10 +15,10 @@ import time
 import numpy as np
 
 from benchmarks.common import DATA, save
-from ingest.ground.fill import fill_nearest
 from ingest.pipeline import survey
 from ingest.readers import read
 from tdb.classes import NOISE
+from tdb.fill import fill_nearest
 from tdb.tin import surface_height, triangulate
 
 FILES = [

@@ -12,9 +12,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.ground.grids import MAX_CELLS
 from tdb.errors import InputError
-from tdb.raster import Raster
+from tdb.raster import MAX_CELLS, Raster
 from tdb.tin import surface_height, triangulate
 
 DEFAULT_RESOLUTION = 0.5

@@ -13,13 +13,14 @@ import numpy as np
 from ingest.dtm import DEFAULT_RESOLUTION, dense_model
 from ingest.ground import classify_ground
 from ingest.noise import ground_noise
-from ingest.pyramid import SUBGRID, TerrainModel, build
+from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
 from tdb.classes import NOISE, excluded, parse_classes, user_classes
 from tdb.cloud import PointCloud
 from tdb.database import Database, Version
 from tdb.options import GroundMethod, parse
 from tdb.raster import Raster
+from tdb.tiles import SUBGRID
 from tdb.units import to_metres
 
 MIN_FLAT = 0.10  # m: below this a threshold would call noise a form

@@ -9,13 +9,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.categorise import categorise
-from ingest.mesh import kept_mesh, mesh_height
-from ingest.reduce import budget_for, kept_nodes, level_bit, paper_keep, refine
-from ingest.tiles import LEVELS, node_grid
+from ingest.reduce import budget_for, kept_nodes, paper_keep, refine
+from ingest.tiles import node_grid
 from tdb.categories import NO_DATA
 from tdb.raster import Raster
-
-SUBGRID = 5
+from tdb.surface import kept_mesh, mesh_height
+from tdb.tiles import LEVELS, SUBGRID, level_bit
 
 
 @dataclass(frozen=True)
@@ -83,7 +82,7 @@ def build(
 
 def reduction_stats(dtm: Raster, model: TerrainModel, *, n: int = SUBGRID) -> dict[str, Any]:
     """Share of dense posts removed and the vertical error of the surface rebuilt from the kept 2 m
-    points and the 2 m categories (:mod:`ingest.mesh`)."""
+    points and the 2 m categories (:mod:`tdb.surface`)."""
     valid = ~np.isnan(dtm.data)
     posts = int(valid.sum())
     finest = min(model.levels)

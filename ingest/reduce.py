@@ -15,9 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.ground.fill import fill_lines
-from ingest.tiles import LEVELS, NodeGrid, TileIndex
 from tdb.categories import NO_DATA, feature_nodes
+from tdb.surface import line_rebuild
+from tdb.tiles import NodeLattice, TileIndex, corner_mask
 
 TOLERANCE = 0.05  # m: a node rebuilt this close to the dense model needs no point of its own
 MAX_KEPT_SHARE = 0.098  # at most this share of the dense posts is kept at the finest level
@@ -30,17 +30,6 @@ class KeptNodes:
 
     kx: NDArray[np.int64]
     ky: NDArray[np.int64]
-
-
-def level_bit(level: int) -> int:
-    return 1 << LEVELS.index(level)
-
-
-def corner_mask(n: int) -> NDArray[np.bool_]:
-    """(n*n,) True at the four corners of a tile's sub-grid."""
-    mask = np.zeros(n * n, bool)
-    mask[[0, n - 1, n * (n - 1), n * n - 1]] = True
-    return mask
 
 
 def category_nodes(codes: NDArray[np.uint8], *, n: int) -> NDArray[np.bool_]:
@@ -66,7 +55,7 @@ def rebuild_error(tiles: NDArray[np.float64], keep: NDArray[np.bool_], *, n: int
     kept node has error inf, so that it is given one first.
     """
     z = np.where(keep, tiles, np.nan)
-    rebuilt = fill_lines(z.reshape(-1, n, n), passes=2).reshape(tiles.shape)
+    rebuilt = line_rebuild(z.reshape(-1, n, n)).reshape(tiles.shape)
     known = ~np.isnan(z)
     kept = known.sum(axis=1, keepdims=True)
     mean = np.where(kept > 0, np.where(known, z, 0.0).sum(axis=1, keepdims=True) / np.maximum(kept, 1), np.nan)
@@ -174,14 +163,20 @@ def _add(
     return len(t), np.unique(np.concatenate(touched))
 
 
-def budget_for(grid: NodeGrid, *, n: int, max_share: float = MAX_KEPT_SHARE) -> int:
+def budget_for(grid: NodeLattice, *, n: int, max_share: float = MAX_KEPT_SHARE) -> int:
     """Nodes :func:`refine` may add: ``max_share`` of the grid's nodes with data, less its corners."""
     valid = ~np.isnan(grid.z)
     return int(max_share * valid.sum()) - int(valid[:: n - 1, :: n - 1].sum())
 
 
 def kept_nodes(
-    grid: NodeGrid, keep: NDArray[np.bool_], ti: NDArray[np.int64], tj: NDArray[np.int64], *, n: int, unit: float
+    grid: NodeLattice,
+    keep: NDArray[np.bool_],
+    ti: NDArray[np.int64],
+    tj: NDArray[np.int64],
+    *,
+    n: int,
+    unit: float,
 ) -> KeptNodes:
     """Unique positions of the kept nodes (T, n*n) of tiles (ti, tj), in units of ``unit``,
     the finest node spacing."""

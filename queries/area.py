@@ -8,10 +8,10 @@ from typing import Any
 
 import numpy as np
 
-from ingest.mesh import KeptMesh, kept_mesh, mesh_height
 from tdb.database import Area, Database
 from tdb.errors import InputError, TdbIOError
 from tdb.raster import Raster
+from tdb.surface import KeptMesh, kept_mesh, mesh_height
 
 
 def area_surface(
@@ -23,7 +23,7 @@ def area_surface(
     mesh: KeptMesh | None = None,
 ) -> Raster:
     """The surface rebuilt from the area's points (linear TIN, corner-only tiles split as their
-    categories imply: :mod:`ingest.mesh`), on a grid of ``cell`` m (default: the level's sub-grid
+    categories imply: :mod:`tdb.surface`), on a grid of ``cell`` m (default: the level's sub-grid
     spacing, level / 4) over ``bbox`` (default: the area's own; a smaller one keeps the grid's
     edge cells inside the triangulation). ``mesh``: the area's, where the caller has it already
     (:func:`area_mesh`)."""

@@ -21,14 +21,14 @@ import shapely
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from ingest.ground.fill import fill_lines_stack
-from ingest.tiles import tile_key
 from queries.centreline import elongation
 from queries.filters import builtin_filters
 from queries.match import REACH_TILES, match_tiles
-from queries.relief import SUBGRID, NodeLattice, nan_extreme, node_lattice
+from queries.relief import nan_extreme
 from tdb.categories import NO_DATA
 from tdb.database import Database
+from tdb.surface import line_rebuild_at
+from tdb.tiles import SUBGRID, NodeLattice, node_lattice, tile_key
 
 MIN_LOD = 0.10
 # A region smaller than ``min_tiles`` (but of at least MIN_STRONG_TILES) counts when its mean
@@ -108,18 +108,12 @@ def _may_move(na: NDArray[np.float64], nb: NDArray[np.float64], lod: float) -> N
 
 
 def _surface(nodes: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Heights of the rebuilt surface at the 3 × 3 nodes of each tile (NaN: no data).
-
-    Within a tile the kept nodes (the corners, the feature's nodes and those the
-    reduction added) stand for planes between them; the nodes between are bridged by
-    straight lines along the tile's rows and columns, edges first, then the interior:
-    close to what a triangulation would give, without one.
-    """
+    """Heights of the line rebuild (:mod:`tdb.surface`) at the 3 × 3 nodes of each tile (NaN: no data)."""
     mid = (SUBGRID - 1) // 2
     cells = np.ravel_multi_index(
         np.meshgrid(np.arange(0, SUBGRID, mid), np.arange(0, SUBGRID, mid), indexing="ij"), (SUBGRID, SUBGRID)
     )
-    return fill_lines_stack(nodes, passes=2, cells=cells.ravel())
+    return line_rebuild_at(nodes, cells.ravel())
 
 
 @dataclass(frozen=True)

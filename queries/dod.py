@@ -14,14 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from ingest.ground.fill import fill_lines_stack
-from ingest.ground.grids import MAX_CELLS
 from queries.changes import shared_tiles
-from queries.relief import SUBGRID, node_lattice
 from tdb.categories import NO_DATA
 from tdb.database import Database
 from tdb.errors import InputError
-from tdb.raster import Raster
+from tdb.raster import MAX_CELLS, Raster
+from tdb.surface import line_rebuild_at
+from tdb.tiles import SUBGRID, node_lattice, node_spacing
 
 Box = tuple[float, float, float, float]
 
@@ -50,7 +49,7 @@ def difference_of_surfaces(
     xg, yg = xg[held], yg[held]
     if len(xg) == 0:
         raise InputError(f"versions {before!r} and {after!r} share no tiles at level {level} there")
-    s = level / (SUBGRID - 1)
+    s = node_spacing(level)
     x0, y0, x1, y1 = bbox or (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
     i0, j0 = int(np.ceil(x0 / s - 1e-9)), int(np.ceil(y0 / s - 1e-9))
     i1, j1 = int(np.floor(x1 / s + 1e-9)), int(np.floor(y1 / s + 1e-9))
@@ -82,7 +81,7 @@ def difference_of_surfaces(
 def _surface(db: Database, version: str, level: int, xg: Any, yg: Any, box: Box) -> np.ndarray:
     x, y, z, _ = db.points(version, level=level, bbox=box, ordered=False)
     nodes = node_lattice(x, y, z, level).tile_nodes(xg, yg)
-    return fill_lines_stack(nodes, passes=2).reshape(nodes.shape)
+    return line_rebuild_at(nodes).reshape(nodes.shape)
 
 
 def describe(dod: Raster, *, lod: float) -> dict[str, float]:

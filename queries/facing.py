@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.tiles import TileIndex
 from tdb.categories import DIRECTION_VECTORS, NONE, by_code
+from tdb.tiles import TileIndex
 
 _INCLINATION = by_code("inclination", missing=0)
 _FEATURE = by_code("feature")

@@ -22,10 +22,10 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ingest.tiles import TileIndex
 from queries.facing import facing_planes
 from tdb.categories import FEATURE_NAMES, SUBPART_UV, all_categories, by_code
 from tdb.errors import FilterError
+from tdb.tiles import TileIndex
 
 # Feature of each uint8 code (-1 for codes that are no category: no data, absent).
 FEATURES = by_code("feature")

@@ -17,10 +17,11 @@ from queries.filters import (
     tile_lines,
 )
 from queries.profile import Nodes, form_width
-from queries.relief import NodeLattice, node_lattice, tile_relief
+from queries.relief import tile_relief
 from queries.shoulder import shoulders
 from tdb.database import Database
 from tdb.errors import FilterError
+from tdb.tiles import NodeLattice, node_lattice
 
 REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
 LINK_TILES = 3.0  # extreme nodes of touching tiles lie at most 2√2 tiles apart

@@ -12,85 +12,15 @@ corner is stored), bilinearly; the extreme node from all of the tile's stored no
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.tiles import tile_key
+from tdb.tiles import SUBGRID, NodeLattice, tile_key
 
-SUBGRID = 5  # nodes per tile side (must match ingest.pyramid.SUBGRID)
 _COS45 = float(np.sqrt(0.5))
 PLANAR = 0.5  # ring_relief: a ring is a plane where no tile strays from it by half the relief
 RING_SHARE = 0.35  # ring_relief: a closed form's least relief over the ring, as a share of its most
 _DIRS = np.array([[1.0, 0.0], [0.0, 1.0], [np.sqrt(0.5), np.sqrt(0.5)], [np.sqrt(0.5), -np.sqrt(0.5)]])
-
-
-@dataclass(frozen=True)
-class NodeLattice:
-    """Stored heights on the node lattice of one level; NaN where no node is stored."""
-
-    z: NDArray[np.float64]  # [j, i]: node (i0 + i, j0 + j)
-    i0: int
-    j0: int
-    spacing: float
-
-    def points(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """x, y, z of every stored node."""
-        jj, ii = np.nonzero(~np.isnan(self.z))
-        x = ((self.i0 + ii) * self.spacing).astype(np.float64)
-        return x, ((self.j0 + jj) * self.spacing).astype(np.float64), self.z[jj, ii]
-
-    def at(self, i: NDArray[np.int64], j: NDArray[np.int64]) -> NDArray[np.float64]:
-        i, j = np.broadcast_arrays(i, j)
-        rows, cols = self.z.shape
-        if self.z.size == 0:
-            return np.full(np.shape(i), np.nan)
-        ii, jj = i - self.i0, j - self.j0
-        # one unsigned comparison per axis also rejects negative offsets
-        ok = (ii.astype(np.uint64) < cols) & (jj.astype(np.uint64) < rows)
-        return np.where(ok, self.z.ravel()[np.where(ok, jj * cols + ii, 0)], np.nan)
-
-    def tile_nodes(self, xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NDArray[np.float64]:
-        """(T, SUBGRID, SUBGRID) stored heights of each tile (rows south to north), NaN where none."""
-        ni = np.rint(np.asarray(xg) / self.spacing).astype(np.int64) - self.i0
-        nj = np.rint(np.asarray(yg) / self.spacing).astype(np.int64) - self.j0
-        rows, cols = self.z.shape
-        inside = (ni >= 0) & (nj >= 0) & (ni <= cols - SUBGRID) & (nj <= rows - SUBGRID)
-        if inside.all():  # the usual case: one gather of whole windows
-            windows = np.lib.stride_tricks.sliding_window_view(self.z, (SUBGRID, SUBGRID))
-            return np.asarray(windows[nj, ni], np.float64)
-        d = np.arange(SUBGRID)
-        return self.at(
-            (ni + self.i0)[:, None, None] + d[None, None, :], (nj + self.j0)[:, None, None] + d[None, :, None]
-        )
-
-    def corners(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Bilinear height from the tile corners (every ``SUBGRID − 1``-th node) at (x, y)."""
-        step = SUBGRID - 1
-        size = self.spacing * step
-        u, v = x / size, y / size
-        ci, cj = np.floor(u).astype(np.int64), np.floor(v).astype(np.int64)
-        fu, fv = u - ci, v - cj
-        out = np.zeros(np.shape(x))
-        for di, dj in ((0, 0), (1, 0), (0, 1), (1, 1)):
-            w = (fu if di else 1 - fu) * (fv if dj else 1 - fv)
-            out += w * self.at((ci + di) * step, (cj + dj) * step)
-        return out
-
-
-def node_lattice(
-    x: NDArray[np.float64], y: NDArray[np.float64], z: NDArray[np.float64], level: int
-) -> NodeLattice:
-    """Place stored points on the node lattice of ``level`` (spacing level / 4)."""
-    s = level / (SUBGRID - 1)
-    i, j = np.rint(x / s).astype(np.int64), np.rint(y / s).astype(np.int64)
-    if len(i) == 0:
-        return NodeLattice(np.full((0, 0), np.nan), 0, 0, s)
-    i0, j0 = int(i.min()), int(j.min())
-    grid = np.full((int(j.max()) - j0 + 1, int(i.max()) - i0 + 1), np.nan)
-    grid[j - j0, i - i0] = z
-    return NodeLattice(grid, i0, j0, s)
 
 
 def extreme_nodes(

@@ -25,7 +25,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from queries.relief import SUBGRID, NodeLattice
+from tdb.tiles import SUBGRID, NodeLattice
 
 STEP = 0.5  # m along the line either side of a foot point, for the line's direction there
 

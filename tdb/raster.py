@@ -8,6 +8,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+MAX_CELLS = 400_000_000  # ~3 GB of float64: beyond this an extent is absurd for its cell size
+
 
 @dataclass(frozen=True)
 class Raster:

@@ -210,8 +210,8 @@ def test_a_compact_region_is_named_by_its_closed_form_before_any_line(mound, rid
     vast=st.booleans(),
 )
 def test_member_is_isin(keys, probe, vast):
-    from ingest.tiles import tile_key
     from queries.changes import _member
+    from tdb.tiles import tile_key
 
     sx, sy = (np.array([k[i] for k in keys], np.int64) for i in (0, 1))
     kx, ky = (np.array([k[i] for k in probe], np.int64) for i in (0, 1))

@@ -10,8 +10,9 @@ from hypothesis import strategies as st
 import tdb
 from ingest.pipeline import ingest
 from queries.match import find
-from queries.relief import SUBGRID, node_lattice, ring_extremes, ring_relief
+from queries.relief import ring_extremes, ring_relief
 from tdb.cloud import from_arrays
+from tdb.tiles import SUBGRID, node_lattice
 
 
 def _dome(x, y, cx, cy, *, width, height):

@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from ingest.ground.fill import fill_linear, fill_lines, fill_lines_stack, fill_nearest
 from ingest.ground.grids import CellSort, Grid, corner_heights
 from tdb.errors import InputError
+from tdb.fill import NearestFill, fill_lines, fill_lines_stack, fill_nearest
 
 
 @settings(max_examples=40, deadline=None)
@@ -20,7 +20,7 @@ from tdb.errors import InputError
     b=st.floats(-2, 2),
     holes=st.floats(0.0, 0.9),
 )
-def test_fill_linear_reproduces_a_plane(seed, a, b, holes):
+def test_line_fill_then_nearest_reproduces_a_plane(seed, a, b, holes):
     rng = np.random.default_rng(seed)
     rows, cols = 30, 40
     i, j = np.mgrid[0:rows, 0:cols]
@@ -29,7 +29,7 @@ def test_fill_linear_reproduces_a_plane(seed, a, b, holes):
     raster[rng.random(plane.shape) < holes] = np.nan
     raster[0, 0] = plane[0, 0]
     raster[-1, -1] = plane[-1, -1]
-    filled = fill_linear(raster)
+    filled = fill_nearest(fill_lines(raster))
     bracketed = ~np.isnan(raster)
     # cells bracketed along their row or column lie on the plane exactly
     row_ok = np.maximum.accumulate(bracketed, axis=1) & np.maximum.accumulate(bracketed[:, ::-1], axis=1)[:, ::-1]
@@ -73,15 +73,18 @@ def test_fill_lines_stack_equals_filling_each_raster(seed, holes, passes, size, 
     np.testing.assert_allclose(fill_lines_stack(stack, passes=passes, cells=cells), expected, atol=1e-9)
 
 
-def test_fill_nearest_reuses_indices_not_values():
+def test_nearest_fill_reuses_indices_not_values():
     rng = np.random.default_rng(9)
     holes = rng.random((40, 50)) < 0.3
+    fill = NearestFill()
     for _ in range(3):  # same holes, new values: each raster is filled from its own cells
         raster = np.where(holes, np.nan, rng.normal(size=holes.shape))
         ri, ci = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
+        np.testing.assert_array_equal(fill(raster), raster[ri, ci])
         np.testing.assert_array_equal(fill_nearest(raster), raster[ri, ci])
-    other = np.where(rng.random((40, 50)) < 0.5, np.nan, 1.0)  # new holes: worked out again
-    assert not np.isnan(fill_nearest(other)).any()
+    other = np.where(rng.random((40, 50)) < 0.5, np.nan, rng.normal(size=holes.shape))  # new holes
+    ri, ci = ndimage.distance_transform_edt(np.isnan(other), return_distances=False, return_indices=True)
+    np.testing.assert_array_equal(fill(other), other[ri, ci])
 
 
 def test_fill_nearest_takes_the_nearest_value_and_refuses_an_empty_raster():

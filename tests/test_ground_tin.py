@@ -92,10 +92,12 @@ def test_closed_form_transforms_match_scipys():
     from tdb.tin import transforms, triangulate
 
     rng = np.random.default_rng(3)
-    xy = rng.uniform(0, 100, (400, 2)) + [500_000.0, 5_400_000.0]
+    xy = rng.uniform(0, 100, (400, 2)) + np.array([500_000.0, 5_400_000.0])
     tin = triangulate(xy)
     scipy_tri = Delaunay(xy - tin.origin)
     assert np.array_equal(scipy_tri.simplices, tin.simplices)
-    np.testing.assert_allclose(transforms(xy - tin.origin, tin.simplices), scipy_tri.transform, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(
+        transforms(xy - tin.origin, tin.simplices), scipy_tri.transform, rtol=1e-9, atol=1e-9
+    )
     lam = barycentric(tin, np.arange(len(tin.simplices)), xy[tin.simplices].mean(axis=1))
     np.testing.assert_allclose(lam, 1 / 3, atol=1e-9)

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ingest.mesh import anti_diagonal, corner_nodes, kept_mesh, mesh_height, split_heights
 from tdb.categories import NO_DATA, all_categories, subgrid_uv, templates
+from tdb.surface import anti_diagonal, corner_nodes, kept_mesh, mesh_height, split_heights
 
 SW, SE, NW, NE = 0, 2, 6, 8  # sub-part indices of the corners
 DIAGONAL = [c for c in all_categories() if c.orientation in ((SW, NE), (NE, SW), (SE, NW), (NW, SE))]

@@ -6,10 +6,9 @@ import numpy as np
 import pytest
 
 from ingest.pyramid import build
-from ingest.reduce import level_bit
-from ingest.tiles import LEVELS
 from tdb.categories import NO_DATA, all_categories
 from tdb.raster import Raster
+from tdb.tiles import LEVELS, level_bit
 
 
 def _raster(f, size=64.0, cell=0.5, x0=1000.0, y0=2000.0):
@@ -99,7 +98,8 @@ def test_refine_reaches_the_tolerance_when_the_budget_allows():
 
 
 def test_refine_spends_no_more_than_its_budget_largest_errors_first():
-    from ingest.reduce import corner_mask, rebuild_error, refine
+    from ingest.reduce import rebuild_error, refine
+    from tdb.tiles import corner_mask
 
     # One sharp pit in an otherwise planar area: the budget goes to it.
     def surface(x, y):
@@ -132,7 +132,8 @@ def test_a_kept_edge_node_is_kept_by_both_tiles_sharing_it():
 
 def test_a_budget_the_feature_nodes_would_spend_goes_to_the_worst_errors_first():
     from ingest.categorise import categorise
-    from ingest.reduce import category_nodes, corner_mask, rebuild_error, refine
+    from ingest.reduce import category_nodes, rebuild_error, refine
+    from tdb.tiles import corner_mask
 
     # Shallow valleys through every tile (their nodes stand 0.3 m out of the corners' surface)
     # and one 2 m pit off the valley lines: three nodes cannot keep every valley node.

@@ -6,8 +6,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ingest.ground.fill import fill_lines
 from ingest.ground.refill import LineFill, touched_runs
+from tdb.fill import fill_lines
 
 
 @settings(max_examples=60, deadline=None)

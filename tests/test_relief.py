@@ -10,8 +10,9 @@ from hypothesis import strategies as st
 
 from queries.centreline import centreline, centrelines, elongation
 from queries.filters import BREAK_LINES
-from queries.relief import node_lattice, tile_relief, two_sided_relief
+from queries.relief import tile_relief, two_sided_relief
 from tdb.categories import PEAK, PIT, SUBPART_UV, all_categories
+from tdb.tiles import node_lattice
 
 LEVEL = 2
 S = LEVEL / 4

@@ -12,9 +12,9 @@ from hypothesis import strategies as st
 import tdb
 from ingest.pipeline import ingest
 from queries.match import find
-from queries.relief import SUBGRID, node_lattice
 from queries.shoulder import shoulders
 from tdb.cloud import from_arrays
+from tdb.tiles import SUBGRID, node_lattice
 
 
 def _form(x, y, *, angle, offset, width, height, profile):

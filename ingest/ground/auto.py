@@ -6,7 +6,7 @@
    window (the progressive morphological idea of Zhang et al. and SMRF).
 3. Refinement: the seed ground becomes a surface posted at the cell corners
    (:func:`ingest.ground.grids.corner_heights`, holes bridged by straight lines,
-   :func:`ingest.ground.fill.fill_linear`, in later passes only where cells changed,
+   :func:`tdb.fill.fill_lines` then :func:`tdb.fill.fill_nearest`, in later passes only where cells changed,
    :mod:`ingest.ground.refill`) and every point is judged by its height
    above that surface against a threshold that grows with the local slope; the
    ground so found makes the next surface and the test is repeated, which lets
@@ -35,13 +35,13 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from ingest.ground.earthworks import elongated_objects, narrow_walls
-from ingest.ground.fill import fill_lines, fill_nearest
 from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of
 from ingest.ground.hills import point_spacing, smooth_hills
 from ingest.ground.morphology import progressive_opening
 from ingest.ground.outliers import ground_spikes, low_outliers, sunken_groups
 from ingest.ground.refill import LineFill
 from tdb.errors import InputError
+from tdb.fill import NearestFill, fill_lines, fill_nearest
 
 
 @dataclass(frozen=True)
@@ -87,16 +87,18 @@ def ground_surface(
     lowest: NDArray[np.intp],
     *,
     lines: Callable[[NDArray[np.floating[Any]]], NDArray[np.floating[Any]]] = fill_lines,
+    nearest: Callable[[NDArray[np.floating[Any]]], NDArray[np.floating[Any]]] = fill_nearest,
 ) -> tuple[NDArray[np.floating[Any]], NDArray[np.floating[Any]]]:
     """Corner-posted ground surface through the points ``lowest`` (one per cell) with its holes
     filled, and its slope (rise/run), lightly smoothed so one noisy point does not raise the
     threshold around it.
 
-    ``lines`` bridges the holes (:func:`ingest.ground.fill.fill_lines`, or a
+    ``lines`` bridges the holes (:func:`tdb.fill.fill_lines`, or a
     :class:`ingest.ground.refill.LineFill` that a run of passes shares); beyond the data
-    the nearest value fills them.
+    the nearest value fills them (``nearest``: :func:`tdb.fill.fill_nearest`, or a
+    :class:`tdb.fill.NearestFill` that a run of passes shares).
     """
-    surface = fill_nearest(lines(corner_heights(grid, xyz, lowest)))
+    surface = nearest(lines(corner_heights(grid, xyz, lowest)))
     dy, dx = np.gradient(ndimage.uniform_filter(surface, size=3, mode="nearest"), grid.cell)
     return surface, np.hypot(dx, dy)
 
@@ -139,7 +141,7 @@ def auto_ground(
     at_points = grid.corner_sampler(pts[:, :2])
     is_ground = np.zeros(len(pts), bool)
     # later passes change few cells of the surface: only their runs of holes are filled again
-    lines = LineFill()
+    lines, nearest = LineFill(), NearestFill()
     # Once the passes settle, each stage may hand them more ground, once: steep-sided ridges,
     # dikes and embankment crests (long, narrow, low groups of object cells), then hills
     # (groups that rise smoothly out of the ground).
@@ -147,7 +149,7 @@ def auto_ground(
     passes = p.refinements + 1
     while True:
         passes -= 1
-        surface, slope_map = ground_surface(grid, pts, current, lines=lines)
+        surface, slope_map = ground_surface(grid, pts, current, lines=lines, nearest=nearest)
         h = pts[:, 2] - at_points(surface)
         before = is_ground
         is_ground = (h <= p.threshold + p.slope_scale * at_points(slope_map)) & (h >= -p.below)

@@ -10,8 +10,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from tdb.errors import InputError
-
-MAX_CELLS = 400_000_000  # ~3 GB of float64: beyond this the extent is absurd for the cell size
+from tdb.raster import MAX_CELLS
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from ingest.ground.fill import fill_nearest
+from tdb.fill import fill_nearest
 
 
 def progressive_opening(

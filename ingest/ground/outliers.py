@@ -20,9 +20,9 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
-from ingest.ground.fill import fill_nearest
 from ingest.ground.grids import CellSort, Grid, heights_of, lowest_per_cell, occupied_area
 from ingest.ground.morphology import progressive_opening
+from tdb.fill import fill_nearest
 
 
 def _block_floor(xyz: NDArray[np.float64], *, k: int, rank: int) -> NDArray[np.float64]:

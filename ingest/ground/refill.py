@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.ground.fill import across_rows, lines_at_holes, weighted_lines
+from tdb.fill import across_rows, lines_at_holes, weighted_lines
 
 
 def touched_runs(raster: NDArray[np.floating[Any]], changed: NDArray[np.intp]) -> NDArray[np.intp]:
@@ -42,7 +42,7 @@ def touched_runs(raster: NDArray[np.floating[Any]], changed: NDArray[np.intp]) -
 
 
 class LineFill:
-    """:func:`ingest.ground.fill.fill_lines` of a 2-D raster that changes a little from call
+    """:func:`tdb.fill.fill_lines` of a 2-D raster that changes a little from call
     to call, the same to the bit.
 
     Each call compares the raster with the last one and fills again the runs of holes, along

@@ -1,13 +1,21 @@
-"""The surface the kept points stand for: their Delaunay TIN, with each tile that keeps only its
-corners split along the diagonal its category implies.
+"""The surface that a level's kept points stand for, rebuilt in two ways.
 
-The four corners of a tile that keeps nothing else lie on one circle, so Delaunay's choice of
-diagonal there is a tie, which Qhull breaks by the order of the points, not by the terrain. On a
-patchy survey half the tiles are such tiles, and the tie alone moves the rebuilt surface's RMSE by
-5 %. The tile's category, stored beside the points, was matched on the whole dense sub-grid, so it
-knows better: the split nearer to the category's template (scaled to the corners by least squares)
-is taken. Where the template says nothing about the corners (flat, no data, equal template
-corners) the diagonal that joins the closer heights is.
+**The TIN rebuild** (:func:`kept_mesh`, :func:`mesh_height`): the Delaunay TIN of the kept
+points, with each tile that keeps only its corners split along the diagonal its category
+implies. It is the surface a user sees: ``tdb aoi``'s GeoTIFF, PNG and PLY faces, and the
+reduction's published RMSE. The four corners of a tile that keeps nothing else lie on one
+circle, so Delaunay's choice of diagonal there is a tie, which Qhull breaks by the order of the
+points, not by the terrain. The tile's category was matched on the whole dense sub-grid, so it
+knows better: the split nearer to the category's template (scaled to the corners by least
+squares) is taken. Where the template says nothing about the corners (flat, no data, equal
+template corners) the diagonal that joins the closer heights is.
+
+**The line rebuild** (:func:`line_rebuild`, :func:`line_rebuild_at`): within each tile alone,
+the nodes that are not kept are bridged by straight lines along the tile's rows and columns
+(weighted by the inverse square of their gaps), edges first, then the interior
+(:data:`LINE_PASSES`). It needs no triangulation and no neighbour, so it is what the reduction
+chooses its kept nodes by, and what change detection and the DEM of difference compare tile by
+tile. A plane is rebuilt exactly by both; elsewhere the two differ by the choice of triangles.
 """
 
 from __future__ import annotations
@@ -17,14 +25,24 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.tiles import TileIndex
 from tdb.categories import NO_DATA, subgrid_uv, templates
+from tdb.fill import fill_lines, fill_lines_stack
+from tdb.tiles import SUBGRID, TileIndex, corner_nodes
 from tdb.tin import Tin, locate, surface_height, triangulate
 
+LINE_PASSES = 2  # a tile known only at its corners gets its edges in the first pass, its interior in the next
 
-def corner_nodes(n: int) -> NDArray[np.intp]:
-    """Sub-grid indices of a tile's SW, SE, NW and NE corners."""
-    return np.array([0, n - 1, n * (n - 1), n * n - 1])
+
+def line_rebuild(nodes: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The line rebuild of tile sub-grids (T, n, n) whose NaN nodes are not kept; NaN where a
+    tile keeps too little to bridge them."""
+    return np.asarray(fill_lines(nodes, passes=LINE_PASSES), np.float64)
+
+
+def line_rebuild_at(nodes: NDArray[np.float64], cells: NDArray[np.intp] | None = None) -> NDArray[np.float64]:
+    """:func:`line_rebuild` (T, len(cells)) at the flat sub-grid indices ``cells`` (all if None);
+    many tiles of a database share their pattern of kept nodes, and this works per pattern."""
+    return fill_lines_stack(nodes, passes=LINE_PASSES, cells=cells)
 
 
 def split_heights(
@@ -40,7 +58,9 @@ def split_heights(
     return np.where(anti, other, main)
 
 
-def anti_diagonal(corners: NDArray[np.float64], codes: NDArray[np.uint8], *, n: int = 5) -> NDArray[np.bool_]:
+def anti_diagonal(
+    corners: NDArray[np.float64], codes: NDArray[np.uint8], *, n: int = SUBGRID
+) -> NDArray[np.bool_]:
     """(T,) True where a tile of corner heights (T, 4: SW, SE, NW, NE) and category ``codes`` is split
     along SE–NW rather than SW–NE (see the module's description)."""
     known = codes != NO_DATA
@@ -86,7 +106,7 @@ def kept_mesh(
     yg: NDArray[np.int64],
     code: NDArray[np.uint8],
     level: int,
-    n: int = 5,
+    n: int = SUBGRID,
 ) -> KeptMesh:
     """The mesh of one level's kept points (x, y, z) and that level's tiles (xg, yg, code).
 

@@ -10,29 +10,39 @@ from scipy import ndimage
 
 from tdb.errors import InputError
 
-# The last hole mask and its nearest-cell indices: the default filter's refinement passes
-# fill rasters whose holes are mostly the same, and the distance transform is the cost.
-_NEAREST: list[tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]]] = []
-_NEAREST_MAX = 16_000_000
-
-
 Lines = NDArray[np.floating[Any]]  # one value per hole
 
 
 def fill_nearest(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
-    """Replace NaN cells by the value of the nearest filled cell."""
-    holes = np.isnan(raster)
-    if not holes.any():
-        return raster
-    if holes.all():
-        raise InputError("raster has no data to fill from")
-    if _NEAREST and _NEAREST[0][0].shape == holes.shape and np.array_equal(_NEAREST[0][0], holes):
-        _, ri, ci = _NEAREST[0]
-    else:
-        ri, ci = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
-        # kept only for rasters of moderate size (at most ~150 MB of indices)
-        _NEAREST[:] = [(holes, ri.astype(np.int32), ci.astype(np.int32))] if holes.size <= _NEAREST_MAX else []
-    return raster[ri, ci]
+    """Replace NaN cells by the value of the nearest filled cell.
+
+    Raises
+    ------
+    InputError
+        If the raster has no filled cell.
+    """
+    return NearestFill()(raster)
+
+
+class NearestFill:
+    """:func:`fill_nearest` for a run of rasters whose holes are mostly the same (the default
+    filter's refinement passes): the nearest-cell indices of the last hole mask are kept, because
+    the distance transform is the cost."""
+
+    def __init__(self) -> None:
+        self._holes: NDArray[np.bool_] | None = None
+        self._index: tuple[NDArray[np.int32], NDArray[np.int32]] | None = None
+
+    def __call__(self, raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
+        holes = np.isnan(raster)
+        if not holes.any():
+            return raster
+        if holes.all():
+            raise InputError("raster has no data to fill from")
+        if self._index is None or self._holes is None or not np.array_equal(self._holes, holes):
+            ri, ci = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
+            self._holes, self._index = holes, (ri.astype(np.int32), ci.astype(np.int32))
+        return raster[self._index]
 
 
 def across_rows(
@@ -125,11 +135,6 @@ def weighted_lines(
     weight = w_row + w_col
     line = (np.nan_to_num(v_row) * w_row + np.nan_to_num(v_col) * w_col) / np.where(weight > 0, weight, 1.0)
     return np.where(weight > 0, line, np.nan)
-
-
-def fill_linear(raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
-    """:func:`fill_lines`, and beyond the data the nearest value."""
-    return fill_nearest(fill_lines(raster))
 
 
 # Fill weights by (rows, cols, passes, cells, pattern): they depend on nothing else, and a
