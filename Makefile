@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/python -m tdb.demo --out out
+	$(BIN)/python -m tdb.cli.demo --out out
 
 lint: $(STAMP)
 	$(BIN)/ruff check tdb ingest queries tests benchmarks

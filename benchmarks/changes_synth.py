@@ -92,7 +92,7 @@ def diff_seconds(path: Path, *, runs: int = 3) -> dict[str, float]:
     t0 = time.perf_counter()
     dod = difference_of_surfaces(db, "before", "after")
     dod_seconds = time.perf_counter() - t0
-    x0, y0, x1, y1 = db.version("before").stats["bounds"]
+    x0, y0, x1, y1 = db.version("before").stats.bounds or (0.0, 0.0, 0.0, 0.0)
     return {
         "dod_seconds": dod_seconds,
         "dod_nodes": int(np.isfinite(dod.data).sum()),

@@ -65,13 +65,14 @@ def main() -> None:
         if classes is not None:
             name = f"{name} (classes {','.join(map(str, classes))} excluded)"
         st = s.model.stats
-        d_rmse, d_max = delatin_rmse(s.dtm.data, st["kept_level2"])
+        assert st is not None
+        d_rmse, d_max = delatin_rmse(s.dtm.data, st.kept_level2)
         rows[name] = {
-            "dense_posts": st["dense_posts"],
-            "kept": st["kept_level2"],
-            "reduction_pct": st["reduction_pct"],
-            "tdb_rmse_m": st["rmse_m"],
-            "tdb_max_m": st["max_error_m"],
+            "dense_posts": st.dense_posts,
+            "kept": st.kept_level2,
+            "reduction_pct": st.reduction_pct,
+            "tdb_rmse_m": st.rmse_m,
+            "tdb_max_m": st.max_error_m,
             "delatin_rmse_m": d_rmse,
             "delatin_max_m": d_max,
             "flat_threshold_m": s.flat_threshold,

@@ -6,6 +6,7 @@ import datetime as dt
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass
+from dataclasses import replace as replace_crs
 from typing import Any
 
 import numpy as np
@@ -18,10 +19,13 @@ from ingest.readers import read
 from tdb.classes import NOISE, excluded, parse_classes, user_classes
 from tdb.cloud import PointCloud
 from tdb.database import Database, Version
-from tdb.options import GroundMethod, parse
+from tdb.errors import Remedy, VersionExistsError
+from tdb.options import GroundMethod, LabelScheme, parse
+from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
+from tdb.stats import VersionStats
 from tdb.tiles import SUBGRID
-from tdb.units import to_metres
+from tdb.units import as_crs, to_metres
 
 MIN_FLAT = 0.10  # m: below this a threshold would call noise a form
 NOISE_FACTOR = 5.0  # flat threshold = this × the measured ground noise
@@ -51,30 +55,23 @@ def survey(
     flat_threshold: float | None = None,
     assume_metres: bool = False,
     exclude: Iterable[int] = NOISE,
-    stage: Any = None,
+    progress: Progress | None = None,
 ) -> Survey:
     """Derive the terrain model of one cloud (pure: nothing is written).
 
-    ``stage(name)`` is called as each step starts (for progress display), and during the
-    ground filter with ``"ground filter (k/n tiles)"`` as Sohn–Dowman's tiles finish.
-    Points of the ``exclude`` classes (default ASPRS noise) are never ground.
+    ``progress`` (:mod:`tdb.progress`) is told each step as it starts, and the ground filter's
+    tiles as they finish. Points of the ``exclude`` classes (default ASPRS noise) are never ground.
     """
-    report = stage or (lambda _name: None)
-    report("units")
+    report = or_silent(progress)
+    report("units", 0, 1)
     metric = to_metres(cloud, assume_metres=assume_metres)
-    report("ground filter")
-
-    def tiles(done: int, total: int) -> None:
-        if total > 1:
-            report(f"ground filter ({done}/{total} tiles)")
-
-    ground = classify_ground(metric, method=parse(GroundMethod, method), progress=tiles, exclude=exclude)
-    report("dense model")
+    ground = classify_ground(metric, method=parse(GroundMethod, method), progress=report, exclude=exclude)
+    report("dense model", 0, 1)
     gxyz = metric.xyz[ground]
     dtm = dense_model(gxyz, resolution=resolution, crs=metric.crs)
     noise = ground_noise(gxyz)
     threshold = flat_threshold if flat_threshold is not None else flat_threshold_for(noise)
-    report("categories and reduction")
+    report("categories and reduction", 0, 1)
     model = build(dtm, flat_threshold=threshold, n=SUBGRID)
     return Survey(metric, ground, dtm, noise, threshold, model)
 
@@ -90,39 +87,29 @@ def ingest(
     flat_threshold: float | None = None,
     replace: bool = False,
     crs: Any = None,
+    labels: str | LabelScheme = LabelScheme.ASPRS,
     assume_metres: bool = False,
     exclude: str | Iterable[int] = NOISE,
-    progress: bool = False,
+    progress: Progress | None = None,
 ) -> Version:
     """Ingest one survey into ``db`` as ``version``, in one transaction.
 
-    ``exclude``: class codes (or text like ``"7,18,65"``) of points that are never
-    ground; the default is ASPRS noise (:data:`tdb.classes.NOISE`).
+    ``crs`` overrides (or supplies) the source's coordinate system, a file's or a cloud's alike;
+    ``labels`` says what a text file's fourth column means. ``exclude``: class codes (or text like
+    ``"7,18,65"``) of points that are never ground; the default is ASPRS noise
+    (:data:`tdb.classes.NOISE`). ``progress``: see :mod:`tdb.progress`.
 
     Raises
     ------
     VersionExistsError
         If ``version`` exists and ``replace`` is false (checked before any work).
     """
-    from tqdm import tqdm
-
     exclude = parse_classes(exclude)
     if not replace and any(v.name == version for v in db.versions()):
-        from tdb.errors import VersionExistsError
-
-        raise VersionExistsError(f"{db.name}: version {version!r} exists (use --replace)")
-    steps = ["read", "units", "ground filter", "dense model", "categories and reduction", "database"]
-    bar = tqdm(
-        total=len(steps), disable=not progress, unit="step", bar_format="{desc:<28} {bar} {n}/{total} [{elapsed}]"
-    )
-
-    def stage(name: str) -> None:
-        bar.set_description(name)
-        # a step's own progress ("ground filter (3/9 tiles)") renames the bar, not advances it
-        bar.update(0 if name == "read" or name.endswith(" tiles)") else 1)
-
-    stage("read")
-    cloud = source if isinstance(source, PointCloud) else read(source, crs=crs)
+        raise VersionExistsError(f"{db.name}: version {version!r} exists", remedy=Remedy.REPLACE)
+    report = or_silent(progress)
+    report("read", 0, 1)
+    cloud = _cloud(source, crs=crs, labels=labels)
     result = survey(
         cloud,
         method=method,
@@ -130,19 +117,19 @@ def ingest(
         flat_threshold=flat_threshold,
         assume_metres=assume_metres,
         exclude=exclude,
-        stage=stage,
+        progress=report,
     )
-    stage("database")
     m = result.model
-    stats = dict(
-        m.stats,
-        ground_points=int(result.ground.sum()),
+    assert m.stats is not None
+    stats = VersionStats(
+        reduction=m.stats,
         points=len(cloud),
+        ground_points=int(result.ground.sum()),
         excluded_points=int(excluded(cloud.classification, exclude).sum()),
-        kept_user_classes=user_classes(cloud.classification, exclude),
+        kept_user_classes={int(c): n for c, n in user_classes(cloud.classification, exclude).items()},
         noise_m=round(result.noise, 4),
         flat_threshold_m=round(result.flat_threshold, 3),
-        bounds=list(result.dtm.bounds),
+        bounds=result.dtm.bounds,
     )
     params = {
         "method": str(parse(GroundMethod, method)),
@@ -151,7 +138,7 @@ def ingest(
         "flat_threshold": result.flat_threshold,
         "exclude_classes": list(exclude),
     }
-    v = db.write_version(
+    return db.write_version(
         version,
         levels={lv: (t.xg, t.yg, t.code) for lv, t in m.levels.items()},
         points=(m.x, m.y, m.z, m.n),
@@ -161,7 +148,12 @@ def ingest(
         params=params,
         stats=stats,
         replace=replace,
+        progress=report,
     )
-    bar.update(1)
-    bar.close()
-    return v
+
+
+def _cloud(source: str | os.PathLike[str] | PointCloud, *, crs: Any, labels: str | LabelScheme) -> PointCloud:
+    """The source's points, with ``crs`` in place of their own where given."""
+    if not isinstance(source, PointCloud):
+        return read(source, crs=crs, labels=labels)
+    return source if crs is None else replace_crs(source, crs=as_crs(crs))

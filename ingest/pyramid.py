@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -13,6 +12,7 @@ from ingest.reduce import budget_for, kept_nodes, paper_keep, refine
 from ingest.tiles import node_grid
 from tdb.categories import NO_DATA
 from tdb.raster import Raster
+from tdb.stats import ReductionStats
 from tdb.surface import kept_mesh, mesh_height
 from tdb.tiles import LEVELS, SUBGRID, level_bit
 
@@ -36,7 +36,7 @@ class TerrainModel:
     y: NDArray[np.float64]
     z: NDArray[np.float64]
     n: NDArray[np.uint8]
-    stats: dict[str, Any] = field(default_factory=dict)
+    stats: ReductionStats | None = None
 
 
 def build(
@@ -80,19 +80,14 @@ def build(
     return TerrainModel(model.levels, model.x, model.y, model.z, model.n, reduction_stats(dtm, model, n=n))
 
 
-def reduction_stats(dtm: Raster, model: TerrainModel, *, n: int = SUBGRID) -> dict[str, Any]:
+def reduction_stats(dtm: Raster, model: TerrainModel, *, n: int = SUBGRID) -> ReductionStats:
     """Share of dense posts removed and the vertical error of the surface rebuilt from the kept 2 m
     points and the 2 m categories (:mod:`tdb.surface`)."""
     valid = ~np.isnan(dtm.data)
     posts = int(valid.sum())
     finest = min(model.levels)
     keep = (model.n & level_bit(finest)) > 0
-    stats: dict[str, Any] = {
-        "dense_posts": posts,
-        "kept_points": len(model.x),
-        "kept_level2": int(keep.sum()),
-        "reduction_pct": round(100.0 * (1 - keep.sum() / max(posts, 1)), 2),
-    }
+    rmse = max_error = None
     if keep.sum() >= 3:
         xs, ys = dtm.centres()
         gx, gy = np.meshgrid(xs, ys)
@@ -111,9 +106,15 @@ def reduction_stats(dtm: Raster, model: TerrainModel, *, n: int = SUBGRID) -> di
         rebuilt = mesh_height(mesh, q)
         err = rebuilt - dtm.data[valid]
         ok = ~np.isnan(err)
-        stats["rmse_m"] = round(float(np.sqrt(np.mean(err[ok] ** 2))), 4)
-        stats["max_error_m"] = round(float(np.abs(err[ok]).max()), 4)
-    for level, tiles in model.levels.items():
-        stats[f"tiles_{level}m"] = len(tiles.code)
-        stats[f"no_data_{level}m"] = int((tiles.code == NO_DATA).sum())
-    return stats
+        rmse = round(float(np.sqrt(np.mean(err[ok] ** 2))), 4)
+        max_error = round(float(np.abs(err[ok]).max()), 4)
+    return ReductionStats(
+        dense_posts=posts,
+        kept_points=len(model.x),
+        kept_level2=int(keep.sum()),
+        reduction_pct=round(100.0 * (1 - keep.sum() / max(posts, 1)), 2),
+        rmse_m=rmse,
+        max_error_m=max_error,
+        tiles={level: len(t.code) for level, t in model.levels.items()},
+        no_data={level: int((t.code == NO_DATA).sum()) for level, t in model.levels.items()},
+    )

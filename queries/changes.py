@@ -59,7 +59,8 @@ def level_of_detection(db: Database, a: str, b: str) -> float:
     terms = []
     for name in (a, b):
         stats = db.version(name).stats
-        terms += [float(stats.get("noise_m", 0.05)), float(stats.get("rmse_m", 0.0))]
+        noise = stats.noise_m if stats.noise_m is not None else 0.05
+        terms += [noise, stats.reduction.rmse_m or 0.0]
     return max(MIN_LOD, 1.96 * float(np.sqrt(np.sum(np.square(terms)))))
 
 

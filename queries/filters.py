@@ -25,7 +25,7 @@ from scipy.sparse.csgraph import connected_components
 from queries.facing import facing_planes
 from tdb.categories import FEATURE_NAMES, SUBPART_UV, all_categories, by_code
 from tdb.errors import FilterError
-from tdb.tiles import TileIndex
+from tdb.tiles import LEVELS, TileIndex
 
 # Feature of each uint8 code (-1 for codes that are no category: no data, absent).
 FEATURES = by_code("feature")
@@ -90,7 +90,9 @@ def _schema() -> dict[str, Any]:
     path = Path(__file__).resolve().parents[1] / "schemas" / "filter.schema.json"
     if not path.exists():  # installed without the source tree
         path = Path(str(resources.files("schemas") / "filter.schema.json"))
-    return json.loads(path.read_text())
+    doc: dict[str, Any] = json.loads(path.read_text())
+    doc["properties"]["level"]["enum"] = list(LEVELS)  # the pyramid's levels are defined once, in code
+    return doc
 
 
 def parse_filter(doc: dict[str, Any]) -> Filter:

@@ -16,6 +16,7 @@ import re
 from dataclasses import dataclass, field
 
 from tdb.errors import QueryError
+from tdb.tiles import LEVELS
 
 TOKEN = re.compile(
     r"""(?P<ws>\s+)|(?P<number>-?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)|(?P<name>[A-Za-z_][A-Za-z0-9_]*)"""
@@ -27,7 +28,6 @@ KEYWORDS = {
 }
 ATTRIBUTES = {"length", "tiles", "depth", "height", "shoulder", "width", "area", "dz", "lod"}
 TEXT_ATTRIBUTES = {"kind", "description"}
-LEVELS = {2, 4, 8, 16}
 
 
 @dataclass
@@ -129,7 +129,7 @@ class _Parser:
             tok = self.peek()
             level = self.number()
             if level not in LEVELS:
-                raise self.error("level must be 2, 4, 8 or 16", tok)
+                raise self.error(f"level must be one of {', '.join(map(str, LEVELS))}", tok)
             q.level = int(level)
         if self.accept("kw", "order"):
             self.expect("kw", "by")

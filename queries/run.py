@@ -15,6 +15,7 @@ from queries.profile import SIDE, Nodes, Stretch, stretches, weighted_median
 from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import QueryError
+from tdb.progress import Progress, or_silent
 
 OPS = {
     "<": operator.lt,
@@ -27,9 +28,9 @@ OPS = {
 }
 
 
-def run(db: Database, text: str, *, progress: bool = False) -> list[dict[str, Any]]:
-    """Run a query; return GeoJSON Feature dicts in the database's CRS. With ``progress``, a
-    bar on stderr follows the longest step (the cross-sections of a query on ``width``)."""
+def run(db: Database, text: str, *, progress: Progress | None = None) -> list[dict[str, Any]]:
+    """Run a query; return GeoJSON Feature dicts in the database's CRS. ``progress``
+    (:mod:`tdb.progress`) follows the longest step: the cross-sections of a query on ``width``."""
     q = parse(text)
     return _order(_select(db, q, text, progress), q)
 
@@ -45,7 +46,7 @@ def _order(features: list[dict[str, Any]], q: Query) -> list[dict[str, Any]]:
     return features if q.limit is None else features[: q.limit]
 
 
-def _select(db: Database, q: Query, text: str, progress: bool = False) -> list[dict[str, Any]]:
+def _select(db: Database, q: Query, text: str, progress: Progress | None = None) -> list[dict[str, Any]]:
     db.version(q.version)  # a clear error for an unknown version before any work
     if q.what == "tiles":
         return _tiles(db, q)
@@ -83,11 +84,12 @@ def _select(db: Database, q: Query, text: str, progress: bool = False) -> list[d
     return out
 
 
-def _by_stretch(db: Database, q: Query, matches: list[Match], *, progress: bool = False) -> list[dict[str, Any]]:
+def _by_stretch(
+    db: Database, q: Query, matches: list[Match], *, progress: Progress | None = None
+) -> list[dict[str, Any]]:
     """Matches cut into stretches with their own cross-section (:mod:`queries.profile`): the
     stretches whose width and depth (height) pass the query, joined where they follow on."""
-    from tqdm import tqdm
-
+    report = or_silent(progress)
     flt = resolve(q.what)
     if not flt.linear or flt.measure == "step":
         raise QueryError(f"{q.what} results have no width: ditch, ridge and wall lines do")
@@ -101,7 +103,8 @@ def _by_stretch(db: Database, q: Query, matches: list[Match], *, progress: bool 
     nodes = Nodes.of(x, y, z)
     by_piece = Query(q.what, q.version, conditions=[c for c in q.conditions if c.attribute in ("width", name)])
     out = []
-    for m in tqdm(matches, desc="cross-sections", unit=q.what, disable=not progress, leave=False):
+    for done, m in enumerate(matches):
+        report("cross-sections", done, len(matches))
         runs: list[list[Stretch]] = []
         for st in stretches(m.geometry, nodes, measure=flt.measure):
             if not (np.isfinite(st.width) and _keep({"width": st.width, name: st.measure}, by_piece)):

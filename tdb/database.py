@@ -26,7 +26,9 @@ from sqlalchemy.exc import IntegrityError, OperationalError
 
 from tdb import blocks, schema
 from tdb.categories import all_categories
-from tdb.errors import DatabaseError, TdbIOError, VersionExistsError, VersionNotFoundError
+from tdb.errors import DatabaseError, Remedy, TdbIOError, VersionExistsError, VersionNotFoundError
+from tdb.progress import Progress, or_silent
+from tdb.stats import VersionStats
 
 SQLITE_MAGIC = b"SQLite format 3\x00"
 BATCH = 50_000
@@ -43,7 +45,7 @@ class Version:
     source: str | None
     crs: str | None
     params: dict[str, Any]
-    stats: dict[str, Any]
+    stats: VersionStats
     created: str
 
 
@@ -235,7 +237,7 @@ class Database:
                 r["source"],
                 r["crs"],
                 json.loads(r["params"]),
-                json.loads(r["stats"]),
+                VersionStats.from_json(json.loads(r["stats"])),
                 r["created"],
             )
             for r in rows
@@ -258,11 +260,13 @@ class Database:
         source: str | None = None,
         crs: str | None = None,
         params: dict[str, Any] | None = None,
-        stats: dict[str, Any] | None = None,
+        stats: VersionStats | None = None,
         replace: bool = False,
-        progress: Any = None,
+        progress: Progress | None = None,
     ) -> Version:
         """Store one survey: tiles per level (xg, yg, code) and points (x, y, z, n), in one transaction.
+
+        ``progress`` is told ``("database", rows written, rows)`` (:mod:`tdb.progress`).
 
         Raises
         ------
@@ -273,7 +277,7 @@ class Database:
             old = conn.execute(select(schema.versions.c.id).where(schema.versions.c.name == name)).scalar()
             if old is not None:
                 if not replace:
-                    raise VersionExistsError(f"{self.name}: version {name!r} exists (use --replace)")
+                    raise VersionExistsError(f"{self.name}: version {name!r} exists", remedy=Remedy.REPLACE)
                 self._delete(conn, old)
             vid = conn.execute(
                 schema.versions.insert().values(
@@ -282,22 +286,23 @@ class Database:
                     source=source,
                     crs=crs,
                     params=json.dumps(params or {}),
-                    stats=json.dumps(stats or {}, default=float),
+                    stats=json.dumps(stats.to_json() if stats else {}, default=float),
                     created=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
                 )
             ).inserted_primary_key
             assert vid is not None
             vid = vid[0]
+            report = _RowCount(or_silent(progress), sum(len(t[0]) for t in levels.values()) + len(points[0]))
             for level, (xg, yg, code) in levels.items():
                 order = np.lexsort((yg, xg))  # key order: B-tree pages fill in sequence
                 xg, yg, code = xg[order], yg[order], code[order]
-                self._bulk(conn, schema.level_tables[level], vid, {"xg": xg, "yg": yg, "c": code}, progress)
+                self._bulk(conn, schema.level_tables[level], vid, {"xg": xg, "yg": yg, "c": code}, report)
                 self._write_tile_blocks(conn, vid, level, xg, yg, code)
             self._write_point_blocks(conn, vid, *points)
             x, y, z, n = points
             order = np.lexsort((y, x))
             x, y, z, n = x[order], y[order], z[order], n[order]
-            self._bulk(conn, schema.points, vid, {"x": x, "y": y, "z": z, "n": n}, progress)
+            self._bulk(conn, schema.points, vid, {"x": x, "y": y, "z": z, "n": n}, report)
         return self.version(name)
 
     def _write_tile_blocks(self, conn: Connection, vid: int, level: int, xg: Any, yg: Any, code: Any) -> None:
@@ -316,7 +321,7 @@ class Database:
             conn.execute(schema.point_blocks.insert(), rows)
 
     def _bulk(
-        self, conn: Connection, table: Any, vid: int, columns: dict[str, NDArray[Any]], progress: Any
+        self, conn: Connection, table: Any, vid: int, columns: dict[str, NDArray[Any]], report: _RowCount
     ) -> None:
         """Batch insert of one version's rows: the statement SQLAlchemy compiles for this dialect, with
         the version as a literal, run by the DB-API's executemany batch by batch (Python objects for
@@ -337,8 +342,7 @@ class Database:
                     _execute_rows(cursor, str(stmt), cols)
                 else:
                     cursor.executemany(str(stmt), [dict(zip(names, r)) for r in zip(*cols)])
-                if progress is not None:
-                    progress.update(len(cols[0]))
+                report.add(len(cols[0]))
         finally:
             cursor.close()
 
@@ -497,6 +501,18 @@ class Area:
     y: NDArray[np.float64]
     z: NDArray[np.float64]
     n: NDArray[np.uint8]
+
+
+class _RowCount:
+    """Rows written so far, told to a :class:`~tdb.progress.Progress` as ``("database", rows, total)``."""
+
+    def __init__(self, progress: Progress, total: int) -> None:
+        self.progress, self.total, self.done = progress, total, 0
+        progress("database", 0, total)
+
+    def add(self, rows: int) -> None:
+        self.done += rows
+        self.progress("database", self.done, self.total)
 
 
 def _columns(rows: list[Any], dtypes: tuple[Any, ...]) -> Any:

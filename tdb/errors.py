@@ -6,9 +6,26 @@ Builtins are mixed in where the meaning fits, so callers that already catch
 
 from __future__ import annotations
 
+from enum import Enum
+
+
+class Remedy(str, Enum):
+    """What the caller can do about an error; each front end phrases it in its own terms
+    (the command line names its flags), so library messages name none."""
+
+    REPLACE = "replace"  # write over the existing version
+    GIVE_CRS = "give_crs"  # name the coordinate system, or declare the coordinates metres
+
 
 class TdbError(Exception):
-    """Base class of every error raised by tdb."""
+    """Base class of every error raised by tdb.
+
+    ``remedy``, where set, says what the caller can do about it (:class:`Remedy`).
+    """
+
+    def __init__(self, *args: object, remedy: Remedy | None = None) -> None:
+        super().__init__(*args)
+        self.remedy = remedy
 
 
 class TdbIOError(TdbError, OSError):

@@ -44,16 +44,7 @@ class OutputFormat(Option):
     GEOJSON = "geojson"
     CSV = "csv"
     TABLE = "table"
-    GPKG = "gpkg"  # a GeoPackage file: needs --out
-
-
-class Level(Option):
-    """Tile sizes of the resolution pyramid, in metres."""
-
-    L2 = "2"
-    L4 = "4"
-    L8 = "8"
-    L16 = "16"
+    GPKG = "gpkg"  # a GeoPackage file, which needs a path
 
 
 E = TypeVar("E", bound=Option)

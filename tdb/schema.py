@@ -24,8 +24,10 @@ from sqlalchemy import (
     Text,
 )
 
+from tdb.tiles import LEVELS
+
 SCHEMA_VERSION = 2  # 2: tile_blocks, point_blocks
-LEVEL_TABLES = {2: "c2", 4: "c4", 8: "c8", 16: "c16"}
+LEVEL_TABLES = {level: f"c{level}" for level in LEVELS}
 
 metadata = MetaData()
 

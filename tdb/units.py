@@ -17,7 +17,7 @@ from pyproj.database import query_utm_crs_info
 
 from tdb.cloud import PointCloud
 from tdb.crs import as_crs, epsg_of
-from tdb.errors import CRSError
+from tdb.errors import CRSError, Remedy
 
 __all__ = ["METRES", "Units", "as_crs", "epsg_of", "to_metres", "units_of"]
 
@@ -98,8 +98,8 @@ def to_metres(cloud: PointCloud, *, assume_metres: bool = False) -> PointCloud:
     if cloud.crs is None:
         if not assume_metres:
             raise CRSError(
-                f"{cloud.source}: no coordinate system; give one (--crs EPSG:XXXX) "
-                "or say the coordinates are metres (--assume-metres)"
+                f"{cloud.source}: no coordinate system; give one, or say the coordinates are metres",
+                remedy=Remedy.GIVE_CRS,
             )
         return cloud
     units = units_of(cloud.crs)

@@ -92,4 +92,4 @@ def test_ingest_names_unknown_classes_and_excludes_them_on_request(plane_cloud, 
     import tdb
 
     stats = tdb.open(db).version("v").stats
-    assert stats["excluded_points"] == int(np.isin(cls, (7, 18, 65)).sum())
+    assert stats.excluded_points == int(np.isin(cls, (7, 18, 65)).sum())

@@ -36,7 +36,7 @@ def test_round_trip_area_sql_filter_and_diff_on_postgresql(pg, tmp_path):
     cloud = sample(scene, density=2.0, seed=4)
     v = ingest(cloud, pg, version="s")
     area = pg.aoi(scene.bounds, level=2)
-    assert len(area.code) == v.stats["tiles_2m"]
+    assert len(area.code) == v.stats.reduction.tiles[2]
     # the same survey in SQLite gives the same tiles and points
     lite = tdb.open(tmp_path / "s.tdb", create=True)
     ingest(cloud, lite, version="s")

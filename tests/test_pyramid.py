@@ -24,10 +24,10 @@ def test_inclined_plane_is_one_category_and_keeps_corners_only():
     codes = model.levels[2].code
     assert set(codes.tolist()) == {1}  # plane rising N
     assert all_categories()[1].description == "plane rising N"
-    assert model.stats["rmse_m"] == pytest.approx(0.0, abs=1e-9)
+    assert model.stats.rmse_m == pytest.approx(0.0, abs=1e-9)
     corners = (np.mod(model.x[model.n & 1 > 0], 2) == 0) & (np.mod(model.y[model.n & 1 > 0], 2) == 0)
     assert corners.all()
-    assert model.stats["reduction_pct"] > 93
+    assert model.stats.reduction_pct > 93
 
 
 def test_flat_terrain():

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -15,6 +15,9 @@ from ingest.ground.tiling import available_cores, by_tiles
 from tdb.classes import NOISE, excluded
 from tdb.cloud import PointCloud, check_spread, from_arrays
 from tdb.options import GroundMethod, parse
+from tdb.progress import Progress, or_silent
+
+STEP = "ground filter"
 
 __all__ = ["AutoParams", "ContourParams", "SohnParams", "classify_ground", "deep_pits", "low_outliers"]
 
@@ -23,7 +26,7 @@ def classify_ground(
     points: PointCloud | NDArray[np.float64],
     *,
     method: str | GroundMethod = "auto",
-    progress: Callable[[int, int], None] | None = None,
+    progress: Progress | None = None,
     exclude: Iterable[int] = NOISE,
 ) -> NDArray[np.bool_]:
     """Ground mask of a point cloud (coordinates in metres).
@@ -33,8 +36,8 @@ def classify_ground(
     points : a :class:`PointCloud` or an (N, 3) array.
     method : ``auto`` (default filter), ``sohn`` (Sohn & Dowman 2002) or
         ``contour`` (Elmqvist active contour). See :class:`GroundMethod`.
-    progress : called with (tiles done, tiles) as Sohn–Dowman's tiles finish (the other
-        filters run whole: once, with (1, 1), at the end).
+    progress : told ``("ground filter", tiles done, tiles)`` as Sohn–Dowman's tiles finish (the
+        other filters run whole: once, with (1, 1), at the end); see :mod:`tdb.progress`.
     exclude : class codes of points the filter never sees and never calls ground
         (default ASPRS noise, 7 and 18; see :mod:`tdb.classes`). Arrays carry no classes.
 
@@ -57,12 +60,13 @@ def classify_ground(
     return ground
 
 
-def _ground(cloud: PointCloud, m: GroundMethod, progress: Callable[[int, int], None] | None) -> NDArray[np.bool_]:
+def _ground(cloud: PointCloud, m: GroundMethod, progress: Progress | None) -> NDArray[np.bool_]:
     xyz = cloud.xyz
+    report = or_silent(progress)
+    report(STEP, 0, 1)
     if m is GroundMethod.AUTO:
         ground = auto_ground(xyz, returns=(cloud.return_number, cloud.number_of_returns))
-        if progress:
-            progress(1, 1)
+        report(STEP, 1, 1)
         return ground
     # The papers have no outlier step; both use the default filter's (see docs/ground.md):
     # Sohn's downward step would make a 25 m deep multipath cluster a TIN vertex (samp41).
@@ -70,9 +74,13 @@ def _ground(cloud: PointCloud, m: GroundMethod, progress: Callable[[int, int], N
     ground = np.zeros(len(xyz), bool)
     keep = np.flatnonzero(~out)
     if m is GroundMethod.SOHN:
-        ground[keep] = by_tiles(xyz[keep], sohn_dowman, workers=available_cores(), progress=progress)
+        ground[keep] = by_tiles(
+            xyz[keep],
+            sohn_dowman,
+            workers=available_cores(),
+            progress=lambda done, total: report(STEP, done, total),
+        )
     else:
         ground[keep] = active_contour(xyz[keep])
-        if progress:
-            progress(1, 1)
+        report(STEP, 1, 1)
     return ground

@@ -11,17 +11,19 @@ import numpy as np
 from ingest.synth.sampling import iter_samples
 from ingest.synth.scene import Scene
 from tdb.errors import TdbIOError
+from tdb.progress import Progress, or_silent
 from tdb.units import as_crs
 
 
 def write_scene(
-    path: str | os.PathLike[str], scene: Scene, *, density: float, seed: int = 0, progress: bool = False
+    path: str | os.PathLike[str], scene: Scene, *, density: float, seed: int = 0, progress: Progress | None = None
 ) -> int:
     """Write the returns of ``scene`` to ``path`` (LAZ where it ends in .laz); return the point count.
 
     Written to a temporary file and moved into place: an interrupted run leaves no partial file.
+    ``progress`` is told ``("sampling", blocks done, 0)`` (:mod:`tdb.progress`).
     """
-    from tqdm import tqdm
+    report = or_silent(progress)
 
     p = Path(path)
     header = laspy.LasHeader(point_format=6, version="1.4")
@@ -32,12 +34,8 @@ def write_scene(
     total = 0
     try:
         with laspy.open(str(tmp), mode="w", header=header, do_compress=p.suffix.lower() == ".laz") as writer:
-            for cols in tqdm(
-                iter_samples(scene, density=density, seed=seed),
-                disable=not progress,
-                desc="sampling",
-                unit="block",
-            ):
+            for block, cols in enumerate(iter_samples(scene, density=density, seed=seed), start=1):
+                report("sampling", block, 0)
                 if len(cols["x"]) == 0:
                     continue
                 pts = laspy.ScaleAwarePointRecord.zeros(len(cols["x"]), header=header)

@@ -13,9 +13,15 @@ from typing import Any
 import click
 
 from tdb import __version__
-from tdb.errors import TdbError
+from tdb.errors import Remedy, TdbError
 
 EXIT_ERROR = 1
+
+# How this command line says what a user can do about an error.
+REMEDIES = {
+    Remedy.REPLACE: "use --replace to write over it",
+    Remedy.GIVE_CRS: "give one with --crs EPSG:XXXX, or pass --assume-metres",
+}
 
 
 class TdbGroup(click.Group):
@@ -28,7 +34,8 @@ class TdbGroup(click.Group):
             if ctx.obj and ctx.obj.get("debug"):
                 traceback.print_exc()
             message = str(exc).splitlines() or [type(exc).__name__]
-            click.echo(f"tdb: error: {message[0]}", err=True)
+            remedy = REMEDIES.get(exc.remedy) if exc.remedy else None
+            click.echo(f"tdb: error: {message[0]}{'; ' + remedy if remedy else ''}", err=True)
             for extra in message[1:]:  # query carets need their context lines
                 click.echo(extra, err=True)
             sys.exit(EXIT_ERROR)

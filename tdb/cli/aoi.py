@@ -6,14 +6,14 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import bbox_option
+from tdb.cli.options import bbox_option, level_option
 
 
 @click.command("aoi")
 @click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
 @click.option("--version", "version", help="Survey name (optional when the database holds one).")
 @bbox_option(required=True)
-@click.option("--level", type=click.Choice(["2", "4", "8", "16"]), default="2", show_default=True)
+@level_option
 @click.option(
     "--out",
     type=click.Path(path_type=Path),
@@ -22,7 +22,7 @@ from tdb.cli.options import bbox_option
     help="Output prefix: writes PREFIX.ply, PREFIX.tif and PREFIX.png.",
 )
 def command(
-    db_path: Path, version: str | None, bbox: tuple[float, float, float, float], level: str, out: Path
+    db_path: Path, version: str | None, bbox: tuple[float, float, float, float], level: int, out: Path
 ) -> None:
     """Read an area from the database: the kept points triangulated (PLY), the surface
     rebuilt on a grid (GeoTIFF) and a hillshade coloured by tile category (PNG).
@@ -38,7 +38,7 @@ def command(
     from tdb.pictures import area_picture
 
     with tdb.open(db_path) as db:
-        area = db.aoi(bbox, level=int(level), version=version)
+        area = db.aoi(bbox, level=level, version=version)
         crs = db.crs(area.version)
     mesh = area_mesh(area)
     surface = area_surface(area, crs=crs, mesh=mesh)

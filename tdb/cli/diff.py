@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import bbox_option
+from tdb.cli.options import bbox_option, level_option
 from tdb.cli.output import check_output, emit, output_options
 
 PICTURE = 4_000_000  # most cells of a change map's background
@@ -16,7 +16,7 @@ PICTURE = 4_000_000  # most cells of a change map's background
 @click.argument("before")
 @click.argument("after")
 @click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
-@click.option("--level", type=click.Choice(["2", "4", "8", "16"]), default="2", show_default=True)
+@level_option
 @bbox_option()
 @output_options
 @click.option(
@@ -31,7 +31,7 @@ def command(
     before: str,
     after: str,
     db_path: Path,
-    level: str,
+    level: int,
     bbox: tuple[float, float, float, float] | None,
     fmt: str,
     out: Path | None,
@@ -57,15 +57,13 @@ def command(
 
     check_output(fmt, out, layer=layer, append=append)
     with tdb.open(db_path) as db:
-        found = detect(db, before, after, level=int(level), bbox=bbox)
+        found = detect(db, before, after, level=level, bbox=bbox)
         crs = db.crs(after)
         lod = level_of_detection(db, before, after)
         if dod:
-            grid = difference_of_surfaces(db, before, after, level=int(level), bbox=bbox)
+            grid = difference_of_surfaces(db, before, after, level=level, bbox=bbox)
         elif png:  # a background for the map: coarser cells over a large area
-            grid = difference_of_surfaces(
-                db, before, after, level=int(level), bbox=bbox, max_cells=PICTURE, fit=True
-            )
+            grid = difference_of_surfaces(db, before, after, level=level, bbox=bbox, max_cells=PICTURE, fit=True)
         else:
             grid = None
     emit(found, fmt=fmt, crs=crs, out=out, layer=layer or "changes", noun="changed region(s)", append=append)

@@ -52,22 +52,17 @@ def command(
       tdb ground lidarhd.laz --exclude-classes 7,18,65 --out ground.laz
     """
     import numpy as np
-    from tqdm import tqdm
 
     from ingest.dtm import dense_model
     from ingest.ground import classify_ground
     from ingest.readers import read, write_las
+    from tdb.cli.progress import Bars
     from tdb.units import to_metres
 
     raw = read(cloud, crs=crs, labels=labels)
     metric = to_metres(raw, assume_metres=assume_metres)
-    with tqdm(total=1, unit="tile", desc=f"ground ({method})", leave=False) as bar:
-
-        def advance(done: int, total: int) -> None:
-            bar.total = total
-            bar.update(done - bar.n)
-
-        ground = classify_ground(metric, method=method, progress=advance, exclude=exclude)
+    with Bars(unit="tile") as bars:
+        ground = classify_ground(metric, method=method, progress=bars, exclude=exclude)
     click.echo(f"{int(ground.sum()):,} of {len(raw):,} points are ground ({100 * ground.mean():.1f} %)")
     if out:
         from tdb.classes import excluded

@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from tdb.cli.options import input_options
+from tdb.tiles import LEVELS
 
 
 @click.command("info")
@@ -50,7 +51,7 @@ def _database_info(path: Path, as_json: bool) -> None:
                     "source": v.source,
                     "created": v.created,
                     "params": v.params,
-                    "stats": v.stats,
+                    "stats": v.stats.to_json(),
                 }
                 for v in versions
             ],
@@ -60,21 +61,19 @@ def _database_info(path: Path, as_json: bool) -> None:
         return
     click.echo(f"database:    {path} (schema {doc['schema_version']}), {len(versions)} version(s)")
     for v in versions:
-        s = v.stats
-        b = s.get("bounds", [0, 0, 0, 0])
+        s, r = v.stats, v.stats.reduction
+        b = s.bounds or (0.0, 0.0, 0.0, 0.0)
         click.echo(f"- {v.name}: acquired {v.acquired or 'unknown'}, from {v.source}")
         click.echo(f"    extent x {b[0]:.1f} .. {b[2]:.1f}, y {b[1]:.1f} .. {b[3]:.1f}")
-        tiles = "/".join(str(s.get(f"tiles_{lv}m")) for lv in (2, 4, 8, 16))
         click.echo(
-            f"    tiles 2/4/8/16 m: {tiles}; "
-            f"points kept {s.get('kept_points'):,} of {s.get('dense_posts'):,} posts "
-            f"({s.get('reduction_pct')} % removed, RMSE {s.get('rmse_m')} m, max {s.get('max_error_m')} m)"
+            f"    tiles {'/'.join(map(str, LEVELS))} m: {'/'.join(str(r.tiles.get(lv)) for lv in LEVELS)}; "
+            f"points kept {r.kept_points:,} of {r.dense_posts:,} posts "
+            f"({r.reduction_pct} % removed, RMSE {r.rmse_m} m, max {r.max_error_m} m)"
         )
         click.echo(
-            f"    ground noise {s.get('noise_m')} m, flat threshold {s.get('flat_threshold_m')} m, "
+            f"    ground noise {s.noise_m} m, flat threshold {s.flat_threshold_m} m, "
             f"method {v.params.get('method')}"
         )
         if "exclude_classes" in v.params:  # versions from before the option have no record
             classes = ",".join(map(str, v.params["exclude_classes"])) or "none"
-            dropped = s.get("excluded_points", 0)
-            click.echo(f"    excluded classes {classes}: {dropped:,} of {s.get('points'):,} points")
+            click.echo(f"    excluded classes {classes}: {s.excluded_points:,} of {s.points:,} points")

@@ -63,8 +63,9 @@ def command(
     """
     import tdb
     from ingest.pipeline import ingest
+    from tdb.cli.progress import Bars
 
-    with tdb.open(db_path, create=True) as db:
+    with tdb.open(db_path, create=True) as db, Bars(unit="step") as bars:
         v = ingest(
             cloud,
             db,
@@ -75,16 +76,17 @@ def command(
             flat_threshold=flat_threshold,
             replace=replace,
             crs=crs,
+            labels=labels,
             assume_metres=assume_metres,
             exclude=exclude,
-            progress=True,
+            progress=bars,
         )
-    s = v.stats
+    r = v.stats.reduction
     click.echo(
-        f"version {v.name!r} in {db_path}: {s['tiles_2m']:,} tiles of 2 m, {s['kept_points']:,} points kept "
-        f"of {s['dense_posts']:,} posts ({s['reduction_pct']} % removed, RMSE {s.get('rmse_m')} m)"
+        f"version {v.name!r} in {db_path}: {r.tiles.get(2, 0):,} tiles of 2 m, {r.kept_points:,} points kept "
+        f"of {r.dense_posts:,} posts ({r.reduction_pct} % removed, RMSE {r.rmse_m} m)"
     )
-    user = s.get("kept_user_classes") or {}
+    user = v.stats.kept_user_classes
     if user:
         found = ", ".join(f"{n:,} of class {c}" for c, n in user.items())
         click.echo(

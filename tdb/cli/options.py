@@ -8,6 +8,7 @@ from typing import Any
 import click
 
 from tdb.options import LabelScheme
+from tdb.tiles import LEVELS
 
 F = Callable[..., Any]
 
@@ -25,6 +26,18 @@ def input_options(func: F) -> F:
         "--crs", default=None, help="Coordinate system of the input, e.g. EPSG:25832 (overrides the file's)."
     )(func)
     return func
+
+
+def level_option(func: F) -> F:
+    """``--level``: a tile size of the pyramid (:data:`tdb.tiles.LEVELS`), as an int."""
+    return click.option(
+        "--level",
+        type=click.Choice([str(lv) for lv in LEVELS]),
+        default=str(LEVELS[0]),
+        show_default=True,
+        callback=lambda _ctx, _param, value: int(value),
+        help="Tile size (m) of the pyramid level.",
+    )(func)
 
 
 def _classes(_ctx: click.Context, _param: click.Parameter, value: str) -> tuple[int, ...]:

@@ -8,6 +8,7 @@ from typing import Any
 import click
 
 from tdb.cli.output import check_output, emit, output_options
+from tdb.errors import InputError
 
 
 @click.command("query")
@@ -36,18 +37,22 @@ def command(
     import tdb
     from queries.language import parse
     from queries.run import run
+    from tdb.cli.progress import Bars
 
     check_output(fmt, out, layer=layer, append=append)
     query = parse(text)
     with tdb.open(db_path) as db:
-        features = run(db, text, progress=True)
+        with Bars(unit="line") as bars:
+            features = run(db, text, progress=bars)
         crs = db.crs(query.version)
         if png:
             from queries.area import overview_surface
             from tdb.pictures import feature_map
 
             level = query.level or 2
-            box = query.bbox or _extent(features, margin=20.0) or tuple(db.version(query.version).stats["bounds"])
+            box = query.bbox or _extent(features, margin=20.0) or db.version(query.version).stats.bounds
+            if box is None:
+                raise InputError(f"version {query.version!r} records no extent to draw; give a bbox")
             surface = overview_surface(db, query.version, box, level=level)
             feature_map(png, features, surface, title=f"{query.what} in {query.version}")
     emit(features, fmt=fmt, crs=crs, out=out, layer=layer or query.what, noun="result(s)", append=append)

@@ -39,9 +39,11 @@ def command(
     """
     from ingest.synth import apply_changes, changes_truth, make_scene, scene_truth, write_scene
     from ingest.synth.truth import write_json
+    from tdb.cli.progress import Bars
 
     scene = make_scene(seed=seed, size=size)
-    n = write_scene(out, scene, density=density, seed=seed, progress=True)
+    with Bars(unit="block") as bars:
+        n = write_scene(out, scene, density=density, seed=seed, progress=bars)
     click.echo(f"wrote {n:,} points to {out}")
     if truth:
         write_json(truth, scene_truth(scene))
@@ -51,7 +53,8 @@ def command(
         )
     if changed:
         later, diffs = apply_changes(scene, seed=seed)
-        n2 = write_scene(changed, later, density=density, seed=seed + 1, progress=True)
+        with Bars(unit="block") as bars:
+            n2 = write_scene(changed, later, density=density, seed=seed + 1, progress=bars)
         click.echo(f"wrote {n2:,} points of the changed scene to {changed}")
         if changes:
             write_json(changes, changes_truth(diffs, scene.crs))

@@ -1,6 +1,6 @@
 """``make demo``: the main job end to end on a bundled synthetic scene.
 
-Run as ``python -m tdb.demo --out out``. Each step prints what it made and where.
+Run as ``python -m tdb.cli.demo --out out``. Each step prints what it made and where.
 """
 
 from __future__ import annotations
@@ -62,11 +62,11 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
             import datetime as dt
 
             v = ingest(out / laz, db, version=name, acquired=dt.date.fromisoformat(day))
-            s = v.stats
+            r = v.stats.reduction
             done(
                 t,
-                f"{s['tiles_2m']:,} tiles of 2 m; {s['kept_points']:,} of {s['dense_posts']:,} posts kept "
-                f"({s['reduction_pct']} % removed, RMSE {s['rmse_m']} m)",
+                f"{r.tiles.get(2, 0):,} tiles of 2 m; {r.kept_points:,} of {r.dense_posts:,} posts kept "
+                f"({r.reduction_pct} % removed, RMSE {r.rmse_m} m)",
             )
         t = step("area of interest: mesh, surface and category picture (tdb aoi)")
         x0, y0 = scene.bounds[:2]
