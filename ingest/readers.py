@@ -16,6 +16,7 @@ from typing import Any
 import laspy
 import numpy as np
 
+from tdb.atomic import atomic_path
 from tdb.cloud import PointCloud, check_finite, check_spread, from_arrays
 from tdb.errors import FormatError, InputError, TdbIOError
 from tdb.options import LabelScheme, parse
@@ -223,10 +224,5 @@ def write_las(
     las.number_of_returns = cloud.number_of_returns
     if cloud.intensity is not None:
         las.intensity = cloud.intensity
-    tmp = p.with_name(f".{p.name}.part")
-    try:
+    with atomic_path(p) as tmp:
         las.write(str(tmp), do_compress=p.suffix.lower() == ".laz")
-        os.replace(tmp, p)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise TdbIOError(f"{p}: cannot write ({exc.strerror or exc})") from None

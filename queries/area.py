@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from tdb.atomic import atomic_path
 from tdb.database import Area, Database
-from tdb.errors import InputError, TdbIOError
+from tdb.errors import InputError
 from tdb.raster import Raster
 from tdb.surface import KeptMesh, kept_mesh, mesh_height
 
@@ -71,10 +71,7 @@ def write_ply(path: str | os.PathLike[str], area: Area, *, mesh: KeptMesh | None
         f"element vertex {len(xyz)}\nproperty double x\nproperty double y\nproperty double z\n"
         f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
     )
-    try:
-        with Path(path).open("w") as fh:
-            fh.write(header)
-            np.savetxt(fh, xyz, fmt="%.3f")
-            np.savetxt(fh, np.column_stack([np.full(len(faces), 3), faces]), fmt="%d")
-    except OSError as exc:
-        raise TdbIOError(f"{path}: cannot write ({exc.strerror})") from None
+    with atomic_path(path) as tmp, tmp.open("w") as fh:
+        fh.write(header)
+        np.savetxt(fh, xyz, fmt="%.3f")
+        np.savetxt(fh, np.column_stack([np.full(len(faces), 3), faces]), fmt="%d")

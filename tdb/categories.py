@@ -28,6 +28,8 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.errors import InputError
+
 NO_DATA = 255
 COUNT = 115
 SUBPART_NAMES = ("SW", "S", "SE", "W", "C", "E", "NW", "N", "NE")
@@ -162,7 +164,9 @@ def _shape(cat: Category, uv: NDArray[np.float64]) -> NDArray[np.float64]:
 def templates(n: int = 5) -> NDArray[np.float64]:
     """Canonical templates (115, n*n) normalised to [0, 1]; row 0 (flat) is all zeros."""
     if n < 5:
-        raise ValueError("the sub-grid needs n >= 5 so that corners, edge middles and the interior exist")
+        raise InputError(
+            f"a sub-grid of {n} nodes per side is too small: corners, edge middles and an interior need 5"
+        )
     uv = subgrid_uv(n)
     out = np.zeros((COUNT, n * n))
     for cat in all_categories()[1:]:

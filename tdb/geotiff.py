@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tdb.atomic import atomic_path
 from tdb.errors import TdbIOError
 from tdb.raster import Raster
 
@@ -37,16 +38,11 @@ def write_geotiff(
     }
     if raster.crs is not None:
         profile["crs"] = rasterio.crs.CRS.from_wkt(raster.crs.to_wkt())
-    tmp = p.with_name(f".{p.name}.part")
-    try:
+    with atomic_path(p, errors=(rasterio.errors.RasterioError,)) as tmp:
         with rasterio.open(tmp, "w", **profile) as dst:
             dst.write(data, 1)
             if tags:
                 dst.update_tags(**tags)
-        os.replace(tmp, p)
-    except (OSError, rasterio.errors.RasterioError) as exc:
-        tmp.unlink(missing_ok=True)
-        raise TdbIOError(f"{p}: cannot write GeoTIFF ({exc})") from None
 
 
 def read_geotiff(path: str | os.PathLike[str]) -> Raster:

@@ -140,7 +140,9 @@ def test_ingest_synthetic_scene(tmp_path):
     cloud = sample(scene, density=2.0, seed=4)
     db = tdb.open(tmp_path / "s.tdb", create=True)
     v = ingest(cloud, db, version="s")
-    assert v.stats.reduction.tiles[2] > 2300 and 85 < v.stats.reduction.reduction_pct < 99  # 100 m square: 2500 at most
+    assert (
+        v.stats.reduction.tiles[2] > 2300 and 85 < v.stats.reduction.reduction_pct < 99
+    )  # 100 m square: 2500 at most
     assert v.stats.reduction.rmse_m < 0.1
     area = db.aoi(scene.bounds, level=2)
     assert len(area.code) == v.stats.reduction.tiles[2]

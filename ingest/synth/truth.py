@@ -8,14 +8,13 @@ from __future__ import annotations
 
 import json
 import os
-from pathlib import Path
 from typing import Any
 
 import shapely
 
 from ingest.synth.changes import Change
 from ingest.synth.scene import Scene
-from tdb.errors import TdbIOError
+from tdb.atomic import write_text
 
 
 def _collection(features: list[dict[str, Any]], crs: str) -> dict[str, Any]:
@@ -69,8 +68,4 @@ def changes_truth(changes: list[Change], crs: str) -> dict[str, Any]:
 
 
 def write_json(path: str | os.PathLike[str], doc: dict[str, Any]) -> None:
-    p = Path(path)
-    try:
-        p.write_text(json.dumps(doc))
-    except OSError as exc:
-        raise TdbIOError(f"{p}: cannot write ({exc.strerror})") from None
+    write_text(path, json.dumps(doc))

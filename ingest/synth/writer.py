@@ -10,7 +10,7 @@ import numpy as np
 
 from ingest.synth.sampling import iter_samples
 from ingest.synth.scene import Scene
-from tdb.errors import TdbIOError
+from tdb.atomic import atomic_path
 from tdb.progress import Progress, or_silent
 from tdb.units import as_crs
 
@@ -30,9 +30,8 @@ def write_scene(
     header.offsets = np.array([scene.bounds[0], scene.bounds[1], 0.0])
     header.scales = np.array([0.001, 0.001, 0.001])
     header.add_crs(as_crs(scene.crs))
-    tmp = p.with_name(f".{p.name}.part")
     total = 0
-    try:
+    with atomic_path(p) as tmp:
         with laspy.open(str(tmp), mode="w", header=header, do_compress=p.suffix.lower() == ".laz") as writer:
             for block, cols in enumerate(iter_samples(scene, density=density, seed=seed), start=1):
                 report("sampling", block, 0)
@@ -45,11 +44,4 @@ def write_scene(
                 pts.number_of_returns = cols["nr"]
                 writer.write_points(pts)
                 total += len(cols["x"])
-        os.replace(tmp, p)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise TdbIOError(f"{p}: cannot write ({exc.strerror or exc})") from None
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
     return total

@@ -11,6 +11,7 @@ from typing import Any
 
 import click
 
+from tdb.atomic import write_text
 from tdb.options import OutputFormat, parse
 
 F = Callable[..., Any]
@@ -68,7 +69,7 @@ def emit(
     if out is None:
         click.echo(body)
         return
-    out.write_text(body)
+    write_text(out, body)
     click.echo(f"{len(features)} {noun} → {out}", err=True)
 
 

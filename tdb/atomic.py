@@ -1,0 +1,57 @@
+"""The one way tdb writes a file: next to its destination, then moved into place.
+
+A failure or an interruption part way leaves the destination as it was (absent, or the old
+file) and no partial file beside it; a write that cannot be done is a :class:`TdbIOError`.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from tdb.errors import TdbError, TdbIOError
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike[str], *, errors: tuple[type[BaseException], ...] = ()) -> Iterator[Path]:
+    """A temporary path beside ``path`` to write to; moved onto ``path`` when the block ends well.
+
+    ``errors``: exception types of the writing library (besides ``OSError``) that mean the file
+    cannot be written; they become a :class:`TdbIOError` naming ``path``.
+    """
+    target = Path(path)
+    try:
+        fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".part{target.suffix}", dir=target.parent or ".")
+    except OSError as exc:
+        raise TdbIOError(f"{target}: cannot write ({exc.strerror or exc})") from None
+    os.close(fd)
+    tmp = Path(name)
+    failures: tuple[type[BaseException], ...] = (OSError, *errors)
+    tmp.unlink()  # writers that refuse to overwrite (GDAL drivers) get a fresh name
+    try:
+        yield tmp
+        os.replace(tmp, target)
+    except TdbError:
+        tmp.unlink(missing_ok=True)
+        raise
+    except failures as exc:
+        tmp.unlink(missing_ok=True)
+        detail = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc).splitlines()[0]
+        raise TdbIOError(f"{target}: cannot write ({detail})") from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+
+
+def write_text(path: str | os.PathLike[str], text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    write_bytes(path, text.encode("utf-8"))
