@@ -24,7 +24,9 @@ def atomic_path(path: str | os.PathLike[str], *, errors: tuple[type[BaseExceptio
     """
     target = Path(path)
     try:
-        fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".part{target.suffix}", dir=target.parent or ".")
+        fd, name = tempfile.mkstemp(
+            prefix=f".{target.stem}.", suffix=f".part{target.suffix}", dir=target.parent or "."
+        )
     except OSError as exc:
         raise TdbIOError(f"{target}: cannot write ({exc.strerror or exc})") from None
     os.close(fd)

@@ -94,8 +94,7 @@ def _write_layer(path: Path, name: str, features: Sequence[dict[str, Any]], wkt:
     kinds = {g.geom_type for g in geoms if g is not None}
     for single, many in _MULTI.items():
         if kinds == {single, many}:
-            geoms = [shapely.from_wkt(f"{many} EMPTY") if g is None else g for g in geoms]
-            geoms = [getattr(shapely, many)([g]) if g.geom_type == single else g for g in geoms]
+            geoms = [getattr(shapely, many)([g]) if g is not None and g.geom_type == single else g for g in geoms]
             kinds = {many}
     keys: list[str] = []
     for f in features:

@@ -1,15 +1,24 @@
-"""PNG pictures: the category atlas and category-coloured hillshades."""
+"""PNG pictures: the category atlas, and maps of areas, query results and changes.
+
+Every map carries what a surveyor checks before trusting it: full coordinates on both axes,
+a scale bar, a north arrow (grid north of the map's CRS), the CRS by name, and a legend for
+every colour used. Figures are built without pyplot, so drawing one never changes the
+caller's matplotlib backend or state.
+"""
 
 from __future__ import annotations
 
+import io
 import os
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.atomic import write_bytes
 from tdb.categories import NO_DATA, PEAK, PIT, RIDGE, STEP_DOWN, STEP_UP, VALLEY, all_categories, templates
 from tdb.raster import Raster
+from tdb.tiles import SUBGRID
 
 # Colour per feature sub-indicator (RGB 0..1): planes grey, ridges red, valleys blue, …
 FEATURE_COLOURS = {
@@ -21,6 +30,26 @@ FEATURE_COLOURS = {
     PEAK: (0.6, 0.2, 0.6),
     PIT: (0.1, 0.55, 0.2),
 }
+FEATURE_LABELS = {
+    0: "plane",
+    RIDGE: "ridge",
+    VALLEY: "valley",
+    STEP_UP: "flat below a rising plane",
+    STEP_DOWN: "flat above a falling plane",
+    PEAK: "peak",
+    PIT: "pit",
+}
+
+# Line colour of each built-in filter's matches on a feature map
+KIND_COLOURS = {
+    "ditch": (0.1, 0.35, 0.9),
+    "ridge": (0.85, 0.15, 0.1),
+    "wall": (0.95, 0.55, 0.0),
+    "embankment": (0.55, 0.2, 0.7),
+    "pit": (0.0, 0.6, 0.8),
+    "mound": (0.8, 0.1, 0.5),
+}
+LOWERED, RAISED = (0.8, 0.2, 0.1), (0.1, 0.35, 0.8)
 
 
 def category_colours() -> NDArray[np.float64]:
@@ -33,25 +62,28 @@ def category_colours() -> NDArray[np.float64]:
     return out
 
 
-def _pyplot() -> Any:
-    import matplotlib
+def _figure(width: float, height: float) -> Any:
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    return Figure(figsize=(width, height))
 
 
-def category_atlas(path: str | os.PathLike[str], *, n: int = 5) -> None:
+def _save(fig: Any, path: str | os.PathLike[str], **kwargs: Any) -> None:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", **kwargs)
+    write_bytes(path, buffer.getvalue())
+
+
+def category_atlas(path: str | os.PathLike[str], *, n: int = SUBGRID) -> None:
     """All 115 canonical templates: height from dark (0) to light (1), north up, the nodes a
     tile keeps for its feature marked red, the code and description under each."""
-    plt = _pyplot()
     from tdb.categories import feature_nodes, subgrid_uv
 
     t = templates(n)
     marks = feature_nodes(n)
     uv = subgrid_uv(n)
-    fig, axes = plt.subplots(10, 12, figsize=(18, 17))
+    fig = _figure(18, 17)
+    axes = fig.subplots(10, 12)
     for ax in axes.ravel():
         ax.axis("off")
     for cat, ax in zip(all_categories(), axes.ravel()):
@@ -67,8 +99,7 @@ def category_atlas(path: str | os.PathLike[str], *, n: int = 5) -> None:
         "tdb: the 115 tile categories (north up, dark low to light high; red: feature nodes kept)", fontsize=13
     )
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(fig, path, dpi=100)
 
 
 def _upsample(z: NDArray[np.float64], k: int) -> NDArray[np.float64]:
@@ -89,15 +120,107 @@ def _hillshade(ax: Any, surface: Raster) -> None:
     ax.set_ylim(y0, y1)
 
 
-# Line colour of each built-in filter's matches on a feature map
-KIND_COLOURS = {
-    "ditch": (0.1, 0.35, 0.9),
-    "ridge": (0.85, 0.15, 0.1),
-    "wall": (0.95, 0.55, 0.0),
-    "embankment": (0.55, 0.2, 0.7),
-    "pit": (0.0, 0.6, 0.8),
-    "mound": (0.8, 0.1, 0.5),
-}
+def nice_length(span: float) -> float:
+    """A round length (1, 2 or 5 × 10^k m) of about a fifth of ``span``, for a scale bar."""
+    target = max(span / 5, 1e-9)
+    power = 10.0 ** np.floor(np.log10(target))
+    return float(max(m * power for m in (1, 2, 5) if m * power <= target * 1.5))
+
+
+def _map_frame(ax: Any, crs: Any, bounds: tuple[float, float, float, float]) -> None:
+    """Full coordinates on the axes, a scale bar, a north arrow and the CRS's name."""
+    from matplotlib.patches import Rectangle
+    from matplotlib.ticker import FuncFormatter
+
+    x0, y0, x1, y1 = bounds
+    ax.set_aspect("equal")
+    plain = FuncFormatter(lambda v, _pos: f"{v:,.0f}")
+    ax.xaxis.set_major_formatter(plain)
+    ax.yaxis.set_major_formatter(plain)
+    ax.tick_params(labelsize=7)
+    for label in ax.get_yticklabels():
+        label.set_rotation(90)
+        label.set_va("center")
+    unit = "m"
+    ax.set_xlabel(f"easting ({unit})", fontsize=8)
+    ax.set_ylabel(f"northing ({unit})", fontsize=8)
+    name = getattr(crs, "name", None) or "no coordinate system declared"
+    epsg = crs.to_epsg() if crs is not None else None
+    ax.text(
+        0.01,
+        0.01,
+        f"CRS: {name}{f' (EPSG:{epsg})' if epsg else ''}",
+        transform=ax.transAxes,
+        fontsize=7,
+        va="bottom",
+        bbox={"facecolor": "white", "alpha": 0.8, "lw": 0},
+    )
+    width, height = x1 - x0, y1 - y0
+    length = nice_length(width)
+    bx, by = x0 + 0.05 * width, y0 + 0.07 * height
+    bar_h = 0.012 * height
+    for k in range(2):  # two halves, black and white, as on printed maps
+        ax.add_patch(
+            Rectangle(
+                (bx + k * length / 2, by),
+                length / 2,
+                bar_h,
+                facecolor="k" if k == 0 else "w",
+                edgecolor="k",
+                lw=0.8,
+            )
+        )
+    label = f"{length:g} m" if length < 1000 else f"{length / 1000:g} km"
+    ax.text(
+        bx + length / 2,
+        by + 1.8 * bar_h,
+        label,
+        ha="center",
+        fontsize=8,
+        bbox={"facecolor": "white", "alpha": 0.8, "lw": 0},
+    )
+    ax.annotate(
+        "N",
+        xy=(0.95, 0.95),
+        xytext=(0.95, 0.83),
+        xycoords="axes fraction",
+        ha="center",
+        va="center",
+        fontsize=11,
+        fontweight="bold",
+        arrowprops={"facecolor": "k", "width": 4, "headwidth": 11, "headlength": 10},
+        bbox={"boxstyle": "circle", "facecolor": "white", "alpha": 0.8, "lw": 0},
+    )
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+
+
+def _legend(ax: Any, entries: list[tuple[str, Any, str]], *, title: str) -> None:
+    """A legend of (label, colour, 'line' | 'patch') entries, outside the map on the right."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    handles = [
+        Line2D([0], [0], color=colour, lw=2)
+        if kind == "line"
+        else Patch(facecolor=colour, edgecolor="0.3", lw=0.5)
+        for _label, colour, kind in entries
+    ]
+    ax.legend(
+        handles,
+        [label for label, _c, _k in entries],
+        title=title,
+        loc="upper left",
+        bbox_to_anchor=(1.02, 1.0),
+        fontsize=8,
+        title_fontsize=8,
+        frameon=False,
+    )
+
+
+def _map_size(bounds: tuple[float, float, float, float]) -> tuple[float, float]:
+    x0, y0, x1, y1 = bounds
+    return 11.0, 8.5 * (y1 - y0) / max(x1 - x0, 1e-9) + 1.0
 
 
 def feature_map(
@@ -105,48 +228,74 @@ def feature_map(
 ) -> None:
     """Query results drawn over the hillshade of ``surface``: lines along their centre lines,
     polygons outlined, coloured by kind (tiles by their category's feature)."""
-    plt = _pyplot()
     import shapely
 
-    x0, y0, x1, y1 = surface.bounds
-    fig, ax = plt.subplots(figsize=(9, 9 * (y1 - y0) / max(x1 - x0, 1e-9) + 0.5))
+    fig = _figure(*_map_size(surface.bounds))
+    ax = fig.add_subplot()
     _hillshade(ax, surface)
     colours = category_colours()
+    used: dict[str, tuple[Any, str]] = {}
     for f in features:
         geom = shapely.geometry.shape(f["geometry"])
         props = f["properties"]
-        colour = colours[props["category"]] if "category" in props else KIND_COLOURS.get(props.get("kind"), "k")
+        if "category" in props:
+            code = int(props["category"])
+            colour = colours[code]
+            label = (
+                "no data"
+                if code == NO_DATA
+                else "flat"
+                if code == 0
+                else FEATURE_LABELS[all_categories()[code].feature]
+            )
+        else:
+            kind = str(props.get("kind", "result"))
+            colour, label = KIND_COLOURS.get(kind, (0.0, 0.0, 0.0)), kind
         for part in getattr(geom, "geoms", [geom]):
             if part.is_empty:
                 continue
             if isinstance(part, shapely.Polygon):
                 px, py = part.exterior.xy
                 ax.fill(px, py, color=colour, alpha=0.35, lw=0.8, ec=colour)
+                used.setdefault(label, (colour, "patch"))
             else:
                 px, py = part.xy
                 ax.plot(px, py, color=colour, lw=1.6)
-    kinds = sorted({str(f["properties"].get("kind", "tiles")) for f in features})
-    ax.set_title(f"{title}: {len(features)} result(s){' (' + ', '.join(kinds) + ')' if kinds else ''}")
-    fig.savefig(path, dpi=100, bbox_inches="tight")
-    plt.close(fig)
+                used.setdefault(label, (colour, "line"))
+    _map_frame(ax, surface.crs, surface.bounds)
+    if used:
+        _legend(ax, [(k, c, kind) for k, (c, kind) in sorted(used.items())], title="results")
+    ax.set_title(f"{title}: {len(features)} result(s) over the hillshade of the rebuilt surface", fontsize=10)
+    _save(fig, path, dpi=100, bbox_inches="tight")
 
 
 def area_picture(path: str | os.PathLike[str], area: Any, surface: Raster) -> None:
     """Hillshade of the rebuilt surface with the tiles' category colours laid over it."""
-    plt = _pyplot()
-    x0, y0, x1, y1 = surface.bounds
-    fig, ax = plt.subplots(figsize=(9, 9 * (y1 - y0) / max(x1 - x0, 1e-9) + 0.5))
+    from matplotlib.patches import Rectangle
+
+    fig = _figure(*_map_size(surface.bounds))
+    ax = fig.add_subplot()
     _hillshade(ax, surface)
     colours = category_colours()
+    cats = all_categories()
     tiles = np.zeros((len(area.code), 4))
     tiles[:, :3] = colours[area.code]
     tiles[:, 3] = np.where(area.code == 0, 0.0, 0.45)
     for (xg, yg), rgba in zip(zip(area.xg, area.yg), tiles):
         if rgba[3] > 0:
-            ax.add_patch(plt.Rectangle((xg, yg), area.level, area.level, color=rgba, lw=0))
-    ax.set_title(f"{area.version}: {area.level} m tiles (red ridge, blue valley, teal/orange steps)")
-    fig.savefig(path, dpi=100, bbox_inches="tight")
-    plt.close(fig)
+            ax.add_patch(Rectangle((xg, yg), area.level, area.level, color=rgba, lw=0))
+    present = {int(c) for c in np.unique(area.code)}
+    features = {cats[c].feature for c in present if c != NO_DATA and c != 0}
+    entries: list[tuple[str, tuple[float, ...], str]] = (
+        [("flat (no colour)", (1.0, 1.0, 1.0), "patch")] if 0 in present else []
+    )
+    entries += [(FEATURE_LABELS[f], (*FEATURE_COLOURS[f], 0.45), "patch") for f in sorted(features)]
+    if NO_DATA in present:
+        entries.append(("no data", (0.0, 0.0, 0.0, 0.45), "patch"))
+    _map_frame(ax, surface.crs, surface.bounds)
+    _legend(ax, entries, title=f"{area.level} m tile category")
+    ax.set_title(f"version {area.version}: {area.level} m tile categories over the rebuilt surface", fontsize=10)
+    _save(fig, path, dpi=100, bbox_inches="tight")
 
 
 def change_map(
@@ -156,25 +305,30 @@ def change_map(
     title: str,
     dod: Raster | None = None,
     lod: float | None = None,
+    crs: Any = None,
+    bounds: tuple[float, float, float, float] | None = None,
 ) -> None:
     """Changed regions labelled with their kind: filled by the sign of their height change, or
-    outlined over the DEM of difference ``dod`` where one is given (shades within ``lod`` are white)."""
-    plt = _pyplot()
+    outlined over the DEM of difference ``dod`` where one is given (shades within ``lod`` are white).
+    ``crs`` names the coordinates where there is no ``dod``; ``bounds`` default to the DEM's or the
+    regions' own."""
     import shapely
+    from matplotlib.colors import TwoSlopeNorm
 
-    fig, ax = plt.subplots(figsize=(9, 9))
+    geoms = [shapely.geometry.shape(f["geometry"]) for f in features]
+    box = bounds or (dod.bounds if dod is not None else _grown(shapely.total_bounds(geoms) if geoms else None))
+    fig = _figure(*_map_size(box))
+    ax = fig.add_subplot()
     if dod is not None and np.isfinite(dod.data).any():
-        from matplotlib.colors import TwoSlopeNorm
-
         finite = np.abs(dod.data[np.isfinite(dod.data)])
         reach = max(float(np.percentile(finite, 99.5)), 3 * (lod or 0.1), 1e-3)
         shown = np.where(np.abs(dod.data) < (lod or 0.0), 0.0, dod.data)
         x0, y0, x1, y1 = dod.bounds
         img = ax.imshow(shown, cmap="RdBu", norm=TwoSlopeNorm(0.0, -reach, reach), extent=(x0, x1, y0, y1))
-        fig.colorbar(img, ax=ax, shrink=0.7, label="height change (m)")
-    for f in features:
-        geom = shapely.geometry.shape(f["geometry"])
-        colour = (0.8, 0.2, 0.1) if f["properties"]["dz"] < 0 else (0.1, 0.35, 0.8)
+        bar = fig.colorbar(img, ax=ax, shrink=0.6, pad=0.08, location="bottom", aspect=40)
+        bar.set_label(f"height change, after − before (m); white within ±{lod or 0:.2f} m", fontsize=8)
+    for f, geom in zip(features, geoms):
+        colour = LOWERED if f["properties"]["dz"] < 0 else RAISED
         for poly in getattr(geom, "geoms", [geom]):
             x, y = poly.exterior.xy
             if dod is None:
@@ -182,8 +336,26 @@ def change_map(
             else:
                 ax.plot(x, y, color="black", lw=0.6)
         c = geom.representative_point()
-        ax.annotate(f["properties"]["kind"], (c.x, c.y), fontsize=6)
-    ax.set_aspect("equal")
-    ax.set_title(f"{title} (red lowered, blue raised)")
-    fig.savefig(path, dpi=100, bbox_inches="tight")
-    plt.close(fig)
+        ax.annotate(
+            f["properties"]["kind"],
+            (c.x, c.y),
+            fontsize=7,
+            bbox={"facecolor": "white", "alpha": 0.6, "lw": 0, "pad": 1},
+        )
+    _map_frame(ax, dod.crs if dod is not None and dod.crs is not None else crs, box)
+    entries: list[tuple[str, tuple[float, ...], str]] = (
+        [("lowered", (*LOWERED, 0.6), "patch"), ("raised", (*RAISED, 0.6), "patch")]
+        if dod is None
+        else [("changed region (labelled by kind)", (0.0, 0.0, 0.0), "line")]
+    )
+    _legend(ax, entries, title="changes")
+    ax.set_title(f"{title}: {len(features)} changed region(s)", fontsize=10)
+    _save(fig, path, dpi=100, bbox_inches="tight")
+
+
+def _grown(bounds: Any) -> tuple[float, float, float, float]:
+    if bounds is None or not np.isfinite(bounds).all():
+        return (0.0, 0.0, 1.0, 1.0)
+    x0, y0, x1, y1 = (float(v) for v in bounds)
+    pad = 0.05 * max(x1 - x0, y1 - y0, 10.0)
+    return (x0 - pad, y0 - pad, x1 + pad, y1 + pad)

@@ -78,3 +78,19 @@ def test_the_walker_sees_imports_inside_functions(tmp_path):
     f = tmp_path / "m.py"
     f.write_text("def g():\n    from ingest.pipeline import ingest\n    import queries.run\n")
     assert _top(imported_packages(f)) == {"ingest", "queries"}
+
+
+def test_drawing_a_map_leaves_the_matplotlib_backend_alone(tmp_path):
+    import matplotlib
+
+    from tdb.pictures import change_map
+
+    before = matplotlib.get_backend()
+    feature = {
+        "type": "Feature",
+        "geometry": {"type": "Polygon", "coordinates": [[[0, 0], [4, 0], [4, 4], [0, 0]]]},
+        "properties": {"kind": "mound removed", "dz": -1.0},
+    }
+    change_map(tmp_path / "c.png", [feature], title="t")
+    assert matplotlib.get_backend() == before
+    assert (tmp_path / "c.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

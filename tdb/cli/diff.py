@@ -82,5 +82,5 @@ def command(
     if png:
         from tdb.pictures import change_map
 
-        change_map(png, found, title=f"{before} → {after}, {level} m tiles", dod=grid, lod=lod)
+        change_map(png, found, title=f"{before} → {after}, {level} m tiles", dod=grid, lod=lod, crs=crs)
         click.echo(f"change map → {png}", err=True)
