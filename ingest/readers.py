@@ -22,9 +22,6 @@ from tdb.errors import FormatError, InputError, TdbIOError
 from tdb.options import LabelScheme, parse
 from tdb.units import as_crs
 
-LAS_SUFFIXES = (".las", ".laz")
-TEXT_SUFFIXES = (".txt", ".xyz", ".csv", ".pts")
-
 
 def read(
     path: str | os.PathLike[str],

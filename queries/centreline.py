@@ -19,18 +19,12 @@ from scipy.spatial import cKDTree
 SPUR_ROUNDS = 2  # spur edges cut, one layer per round
 
 
-def centreline(x: NDArray[np.float64], y: NDArray[np.float64], *, link: float) -> shapely.Geometry:
-    """A (Multi)LineString through the points (x, y), joining points at most ``link`` apart.
-
-    Returns an empty LineString for fewer than two distinct points.
-    """
-    return centrelines(x, y, np.zeros(len(x), np.intp), link=link, count=1)[0]
-
-
 def centrelines(
     x: NDArray[np.float64], y: NDArray[np.float64], group: NDArray[np.intp], *, link: float, count: int
 ) -> list[shapely.Geometry]:
-    """:func:`centreline` of each of ``count`` groups of points at once (``group``: each point's).
+    """A (Multi)LineString through the points (x, y) of each of ``count`` groups (``group``: each
+    point's), joining points of a group at most ``link`` apart; an empty LineString for a group of
+    fewer than two distinct points.
 
     One tree and one spanning forest serve all groups: only points of the same group are
     joined, so the forest is the union of each group's own tree.

@@ -12,7 +12,6 @@ from tdb.crs import as_crs
 from tdb.errors import DegenerateInputError, InputError
 
 GROUND = 2
-UNCLASSIFIED = 1
 VEGETATION = 5
 BUILDING = 6
 NOISE = 7
@@ -81,9 +80,6 @@ class PointCloud:
             number_of_returns=self.number_of_returns[index],
             intensity=None if self.intensity is None else self.intensity[index],
         )
-
-    def with_classification(self, classification: NDArray[np.uint8]) -> PointCloud:
-        return replace(self, classification=np.asarray(classification, dtype=np.uint8))
 
 
 def from_arrays(

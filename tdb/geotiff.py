@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 
 from tdb.atomic import atomic_path
-from tdb.errors import TdbIOError
 from tdb.raster import Raster
 
 
@@ -43,20 +42,3 @@ def write_geotiff(
             dst.write(data, 1)
             if tags:
                 dst.update_tags(**tags)
-
-
-def read_geotiff(path: str | os.PathLike[str]) -> Raster:
-    """Read band 1 of a GeoTIFF written by :func:`write_geotiff` (no-data as NaN)."""
-    import pyproj
-    import rasterio
-
-    try:
-        with rasterio.open(path) as src:
-            data = src.read(1).astype(np.float64)
-            if src.nodata is not None:
-                data[data == src.nodata] = np.nan
-            t = src.transform
-            crs = pyproj.CRS.from_wkt(src.crs.to_wkt()) if src.crs else None
-    except (OSError, rasterio.errors.RasterioError) as exc:
-        raise TdbIOError(f"{path}: cannot read GeoTIFF ({exc})") from None
-    return Raster(data, float(t.c), float(t.f), float(t.a), crs)

@@ -9,7 +9,7 @@ from ingest.dtm import dense_model
 from ingest.synth import ground_height, make_scene, sample
 from tdb.cloud import GROUND
 from tdb.errors import InputError
-from tdb.geotiff import read_geotiff, write_geotiff
+from tdb.geotiff import write_geotiff
 
 
 def test_plane_is_reproduced_exactly():
@@ -82,3 +82,19 @@ def test_sampling_on_a_post_beside_a_hole_keeps_its_value():
     assert np.isnan(r.sample(np.array([1.0]), np.array([1.5]))[0])  # halfway to the hole
     assert r.sample(np.array([1.0]), np.array([0.5]))[0] == 3.5
     assert np.isnan(r.sample(np.array([-0.1]), np.array([0.5]))[0])  # outside
+
+
+def read_geotiff(path):
+    """Band 1 of a GeoTIFF as a Raster (no-data as NaN), read with rasterio."""
+    import pyproj
+    import rasterio
+
+    from tdb.raster import Raster
+
+    with rasterio.open(path) as src:
+        data = src.read(1).astype(np.float64)
+        if src.nodata is not None:
+            data[data == src.nodata] = np.nan
+        t = src.transform
+        crs = pyproj.CRS.from_wkt(src.crs.to_wkt()) if src.crs else None
+    return Raster(data, float(t.c), float(t.f), float(t.a), crs)

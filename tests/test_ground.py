@@ -39,6 +39,61 @@ def test_description_length_terms():
     assert description_length(np.array([]), np.array([]), n_offs=1, height=4.0, p=P) == pytest.approx(2.0)
 
 
+def test_vectorised_description_lengths_match_eq_12_tetrahedron_by_tetrahedron():
+    """The filter's batched Eq. 12 (all candidates at once) against :func:`description_length`
+    worked out for one tetrahedron at a time, from its own facets, triangles and labels."""
+    from ingest.ground.ground_tin import GroundTin
+    from ingest.ground.sohn import EPS, _description_lengths, downward
+    from tdb.tin import angle_between, barycentric, triangulate, unit_normals
+
+    rng = np.random.default_rng(5)
+    n = 500
+    x, y = rng.uniform(0, 40, n), rng.uniform(0, 40, n)
+    z = 10 + 0.05 * x + rng.normal(0, 0.05, n)
+    bump = np.hypot(x - 20, y - 20) < 6
+    z[bump] += 2.5 + rng.normal(0, 0.3, bump.sum())  # an object the upward step must judge
+    xyz = np.column_stack([x, y, z])
+    corners = initial_corners(xyz)
+    ground = downward(xyz, corners, P)
+    all_tris = triangulate(xyz[:, :2]).simplices
+    tri_normals = unit_normals(xyz[all_tris[:, 0]], xyz[all_tris[:, 1]], xyz[all_tris[:, 2]])
+    tin = GroundTin.build(np.vstack([corners, xyz[ground]]))
+    free = np.flatnonzero(~ground)
+    simplex = tin.locate(xyz[free, :2])
+    lam = barycentric(tin, simplex, xyz[free, :2])
+    h = xyz[free, 2] - (lam * tin.points[tin.simplices, 2][simplex]).sum(axis=1)
+    cand = np.flatnonzero(h > EPS)[::7][:40]
+    assert len(cand) >= 20
+    dl = _description_lengths(xyz, free, cand, simplex, lam, h, tin, tri_normals, all_tris, P)
+
+    owner = np.full(len(xyz), -1)
+    owner[free] = simplex
+    first = [next((int(v) for v in owner[t] if v >= 0), -1) for t in all_tris]
+    expected = []
+    for c in cand:
+        b, la, height = simplex[c], lam[c], h[c]
+        base = tin.points[tin.simplices[b]]
+        ons, bufs, offs = [], [], 0
+        for t in np.flatnonzero(np.array(first) == b):
+            corner = xyz[all_tris[t]]
+            lv = barycentric(tin, np.full(3, b), corner[:, :2])
+            above_base = corner[:, 2] - lv @ base[:, 2]
+            k = int(np.argmin(lv.mean(axis=0) / np.maximum(la, EPS)))
+            facet = base.copy()
+            facet[k] = xyz[free[c]]
+            on = int((above_base - lv[:, k] * height / max(la[k], EPS) <= P.delta_h).sum())
+            normal = unit_normals(facet[None, 0], facet[None, 1], facet[None, 2])
+            angle = float(angle_between(tri_normals[None, t], normal)[0])
+            if on == 3:
+                ons.append(angle)
+            elif on > 0:
+                bufs.append(angle)
+            else:
+                offs += 1
+        expected.append(description_length(np.array(ons), np.array(bufs), n_offs=offs, height=height, p=P))
+    np.testing.assert_allclose(dl, expected, rtol=1e-9, atol=1e-9)
+
+
 def test_facet_share_matches_geometry():
     # Apex at the centroid, height H; a point halfway from the centroid to a vertex
     # lies in a facet at height H/2.

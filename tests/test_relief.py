@@ -8,7 +8,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from queries.centreline import centreline, centrelines, elongation
+from queries.centreline import centrelines, elongation
 from queries.filters import BREAK_LINES
 from queries.relief import tile_relief, two_sided_relief
 from tdb.categories import PEAK, PIT, SUBPART_UV, all_categories
@@ -162,3 +162,8 @@ def test_centrelines_of_groups_side_by_side_stay_apart():
         alone = centreline(x[group == g], y[group == g], link=3.0)
         assert lines[g].equals(alone) and lines[g].length == pytest.approx(19.0)
     assert lines[2].is_empty  # a group with no points
+
+
+def centreline(x, y, *, link):
+    """One group's centre line."""
+    return centrelines(x, y, np.zeros(len(x), np.intp), link=link, count=1)[0]
