@@ -25,6 +25,7 @@ from scipy.sparse.csgraph import connected_components
 from queries.facing import facing_planes
 from tdb.categories import FEATURE_NAMES, SUBPART_UV, all_categories, by_code
 from tdb.errors import FilterError
+from tdb.options import Measure, parse
 from tdb.tiles import LEVELS, TileIndex
 
 # Feature of each uint8 code (-1 for codes that are no category: no data, absent).
@@ -63,7 +64,7 @@ class Filter:
     linear: bool
     level: int = 2
     min_tiles: int = 1
-    measure: str = "height"
+    measure: Measure = Measure.HEIGHT
     description: str = ""
     join: str = "lines"
     min_measure: float = 0.0
@@ -117,7 +118,7 @@ def parse_filter(doc: dict[str, Any]) -> Filter:
         doc["linear"],
         doc.get("level", 2),
         doc.get("min_tiles", 1),
-        doc.get("measure", "height"),
+        parse(Measure, doc.get("measure", "height")),
         doc.get("description", ""),
         join,
         float(doc.get("min_measure", 0.0)),
@@ -212,7 +213,7 @@ def candidates(
     own = np.isin(FEATURES[code], list(flt.features))
     facing = np.zeros_like(own)
     if flt.facing:
-        facing = facing_planes(xg, yg, code, level=level, falling=flt.measure == "depth") & ~own
+        facing = facing_planes(xg, yg, code, level=level, falling=flt.measure is Measure.DEPTH) & ~own
     return own, facing
 
 

@@ -21,6 +21,7 @@ from queries.relief import tile_relief
 from queries.shoulder import shoulders
 from tdb.database import Database
 from tdb.errors import FilterError
+from tdb.options import Measure
 from tdb.tiles import NodeLattice, node_lattice
 
 REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
@@ -137,7 +138,7 @@ def match_tiles(
         found.append((g, measure))
     if not shapes:
         return [Match(flt.name, lv, keep[g], shapely.GeometryCollection(), float("nan"), m) for g, m in found]
-    if flt.linear and flt.measure != "step":
+    if flt.linear and flt.measure is not Measure.STEP:
         owner = np.repeat(np.arange(len(found)), [len(g) for g, _ in found])
         tiles = np.concatenate([g for g, _ in found]) if found else np.zeros(0, np.intp)
         link = (LINK_TILES + flt.gap) * lv
@@ -145,7 +146,11 @@ def match_tiles(
     else:  # a step has no extreme line; polygons come from the tiles
         geoms = [shapely.LineString()] * len(found)
     shoulder = np.full(len(found), np.nan)
-    if flt.linear and flt.measure != "step" and (flt.min_shoulder is not None or flt.max_shoulder is not None):
+    if (
+        flt.linear
+        and flt.measure is not Measure.STEP
+        and (flt.min_shoulder is not None or flt.max_shoulder is not None)
+    ):
         shoulder = shoulders(lattice, geoms, np.array([m for _, m in found]), measure=flt.measure)
     broad = _broad(lattice, geoms, shoulder, flt)
     out = []

@@ -35,6 +35,8 @@ import shapely.ops
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
+from tdb.options import Measure
+
 PIECE = 20.0  # m of line per cross-section fit
 MIN_PART = 8.0  # m: a shorter part (a junction's stub) takes its match's width and depth
 BAND = 3.0  # m either side of the line whose nodes sample the form; widths are read up to twice this
@@ -131,11 +133,11 @@ def smooth_line(line: shapely.LineString, *, window: float = 2.0, step: float = 
     return shapely.LineString(np.column_stack([np.convolve(pad[:, i], kernel, "valid") for i in (0, 1)]))
 
 
-def stretches(line: shapely.Geometry, nodes: Nodes, *, measure: str = "depth") -> list[Stretch]:
+def stretches(line: shapely.Geometry, nodes: Nodes, *, measure: Measure = Measure.DEPTH) -> list[Stretch]:
     """The stretches of one match's centre line (Multi)LineString with their cross-sections,
     from the stored ``nodes`` around it. Pieces too short or too sparse to fit take the
     length-weighted median of the match's measured ones."""
-    sign = 1.0 if measure == "depth" else -1.0
+    sign = -measure.sign  # the cross-section is fitted as a valley: a ridge is turned over
     out: list[Stretch] = []
     for k, part in enumerate(getattr(line, "geoms", [line])):
         if part.is_empty or part.length == 0:
@@ -157,7 +159,7 @@ def stretches(line: shapely.Geometry, nodes: Nodes, *, measure: str = "depth") -
     return out
 
 
-def form_width(line: shapely.Geometry, nodes: Nodes, *, measure: str = "height") -> float:
+def form_width(line: shapely.Geometry, nodes: Nodes, *, measure: Measure = Measure.HEIGHT) -> float:
     """Length-weighted median width (m) of a match's stretches; NaN where none could be fitted."""
     measured = [s for s in stretches(line, nodes, measure=measure) if np.isfinite(s.width)]
     if not measured:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.options import Measure
 from tdb.tiles import SUBGRID, NodeLattice, tile_key
 
 _COS45 = float(np.sqrt(0.5))
@@ -24,16 +25,16 @@ _DIRS = np.array([[1.0, 0.0], [0.0, 1.0], [np.sqrt(0.5), np.sqrt(0.5)], [np.sqrt
 
 
 def extreme_nodes(
-    lattice: NodeLattice, xg: NDArray[np.int64], yg: NDArray[np.int64], *, measure: str, detrend: bool = False
+    lattice: NodeLattice, xg: NDArray[np.int64], yg: NDArray[np.int64], *, measure: Measure, detrend: bool = False
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """x, y, z of each tile's lowest (``measure="depth"``) or highest stored node (z NaN: none stored).
+    """x, y, z of each tile's lowest (``Measure.DEPTH``) or highest stored node (z NaN: none stored).
 
     With ``detrend``, lowest and highest relative to the surface through the tile's
     corners (bilinear), so that on a slope the node picked is the one in the ditch,
-    not the tile's downhill corner. For ``measure="step"`` the tile's centre, with z NaN.
+    not the tile's downhill corner. For ``Measure.STEP`` the tile's centre, with z NaN.
     """
     s = lattice.spacing
-    if measure == "step":
+    if measure is Measure.STEP:
         half = s * (SUBGRID - 1) / 2
         cx = np.asarray(xg, np.float64) + half
         cy = np.asarray(yg, np.float64) + half
@@ -47,7 +48,7 @@ def extreme_nodes(
     corner = [z[:, k][:, None] for k in (0, last, last * SUBGRID, SUBGRID * SUBGRID - 1)]
     plane = (1 - u) * (1 - v) * corner[0] + u * (1 - v) * corner[1] + (1 - u) * v * corner[2] + u * v * corner[3]
     rel = z - np.where(np.isnan(plane), 0.0, plane) if detrend else z
-    score = np.where(np.isnan(z), -np.inf, (-1.0 if measure == "depth" else 1.0) * rel)
+    score = np.where(np.isnan(z), -np.inf, measure.sign * rel)
     k = score.argmax(axis=1)
     rows = np.arange(len(k))
     return ni[rows, k] * s, nj[rows, k] * s, z[rows, k]
@@ -59,29 +60,29 @@ def two_sided_relief(
     y: NDArray[np.float64],
     z: NDArray[np.float64],
     *,
-    measure: str,
+    measure: Measure,
     reach: float,
     along: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
-    """Depth (``measure="depth"``) or height of points (x, y, z) below / above the terrain on both sides.
+    """Depth (``Measure.DEPTH``) or height of points (x, y, z) below / above the terrain on both sides.
 
     For each of four directions the terrain is read at ``reach`` metres on either
     side of the point; the relief is the smaller of the two differences, and the
     point's relief the largest over the directions (NaN where z or the terrain
-    beside it is unknown). ``measure="step"`` (an embankment's side) is the
+    beside it is unknown). ``Measure.STEP`` (an embankment's side) is the
     largest difference between the terrain on the two sides.
 
     ``along`` (N, 2) gives each point's break line direction (NaN: none): directions
     closer than 45° to it are not read. Along its own line a ditch's rim or a wall's
     foot has the feature in the cells beside it and would seem to stand out.
     """
-    sign = -1.0 if measure == "depth" else 1.0
+    sign = measure.sign
     best = np.full(len(x), -np.inf)
     for dx, dy in _DIRS:
         a = lattice.corners(x + reach * dx, y + reach * dy)
         b = lattice.corners(x - reach * dx, y - reach * dy)
         with np.errstate(invalid="ignore"):
-            rel = np.abs(a - b) if measure == "step" else np.minimum(sign * (z - a), sign * (z - b))
+            rel = np.abs(a - b) if measure is Measure.STEP else np.minimum(sign * (z - a), sign * (z - b))
         if along is not None:
             with np.errstate(invalid="ignore"):
                 rel = np.where(np.abs(along @ np.array([dx, dy])) > _COS45 + 1e-9, -np.inf, rel)
@@ -96,10 +97,10 @@ def ring_relief(
     yg: NDArray[np.int64],
     z: NDArray[np.float64],
     *,
-    measure: str,
+    measure: Measure,
     tiles: int,
 ) -> NDArray[np.float64]:
-    """How far heights ``z`` of tiles (xg, yg) stand above (below, ``measure="depth"``) the highest
+    """How far heights ``z`` of tiles (xg, yg) stand above (below, ``Measure.DEPTH``) the highest
     (lowest) stored node of every tile in the ring ``tiles`` tiles away (NaN where any is unknown).
 
     A closed form stands out of all of it. A ridge or a ditch does not: the ring crosses its
@@ -115,7 +116,7 @@ def ring_relief(
     is. A line that ends near the tile, or a wide form's own flanks, bend the ring out of a
     plane, and a plane fitted through a line's end would make the end stand out.
     """
-    sign = -1.0 if measure == "depth" else 1.0
+    sign = measure.sign
     ring = np.array([(di, dj) for di in range(-tiles, tiles + 1) for dj in range(-tiles, tiles + 1)])
     ring = ring[np.abs(ring).max(axis=1) == tiles]
     extreme = ring_extremes(lattice, np.asarray(xg), np.asarray(yg), ring, sign=sign)
@@ -207,7 +208,7 @@ def tile_relief(
     xg: NDArray[np.int64],
     yg: NDArray[np.int64],
     *,
-    measure: str,
+    measure: Measure,
     reach: float,
     along: NDArray[np.float64] | None = None,
     around: bool = False,
@@ -225,7 +226,7 @@ def tile_relief(
         ring = max(1, round(reach / (lattice.spacing * (SUBGRID - 1))))
         return x, y, ring_relief(lattice, xg, yg, z, measure=measure, tiles=ring)
     best: tuple[NDArray[np.float64], ...] | None = None
-    for detrend in (False,) if measure == "step" else (False, True):
+    for detrend in (False,) if measure is Measure.STEP else (False, True):
         x, y, z = extreme_nodes(lattice, xg, yg, measure=measure, detrend=detrend)
         rel = two_sided_relief(lattice, x, y, z, measure=measure, reach=reach, along=along)
         if best is None:

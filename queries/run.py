@@ -15,6 +15,7 @@ from queries.profile import SIDE, Nodes, Stretch, stretches, weighted_median
 from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import QueryError
+from tdb.options import Measure
 from tdb.progress import Progress, or_silent
 
 OPS = {
@@ -91,11 +92,11 @@ def _by_stretch(
     stretches whose width and depth (height) pass the query, joined where they follow on."""
     report = or_silent(progress)
     flt = resolve(q.what)
-    if not flt.linear or flt.measure == "step":
+    if not flt.linear or flt.measure is Measure.STEP:
         raise QueryError(f"{q.what} results have no width: ditch, ridge and wall lines do")
     if not matches:
         return []
-    name = "depth" if flt.measure == "depth" else "height"
+    name = flt.measure.value
     x0, y0, x1, y1 = shapely.total_bounds([m.geometry for m in matches])
     grow = SIDE[1] + matches[0].level
     box = (x0 - grow, y0 - grow, x1 + grow, y1 + grow)

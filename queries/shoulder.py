@@ -6,7 +6,7 @@ wall's crest (walls are up to 1.6 m wide) the ground is back at the foot, while 
 ridge 3–6 m wide still stands at half its height or more. The *shoulder* of a
 line is that share: the median height, above the terrain beside the form, of the
 stored tile corners ``near``–``far`` metres off the line on one side, over the
-form's own height (depth for ``measure="depth"``), the larger of the two sides.
+form's own height (depth for ``Measure.DEPTH``), the larger of the two sides.
 The larger, because a centre line drawn along one edge of a flat top has the top
 on one side only.
 
@@ -25,6 +25,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from tdb.options import Measure
 from tdb.tiles import SUBGRID, NodeLattice
 
 STEP = 0.5  # m along the line either side of a foot point, for the line's direction there
@@ -45,7 +46,7 @@ def shoulders(
     lines: list[shapely.Geometry],
     heights: NDArray[np.float64],
     *,
-    measure: str = "height",
+    measure: Measure = Measure.HEIGHT,
     near: float = 0.8,
     far: float = 1.6,
     side: float = 5.0,
@@ -68,7 +69,7 @@ def shoulders(
         return out
     corners = shapely.points(cx, cy)
     tree = shapely.STRtree(corners)
-    sign = -1.0 if measure == "depth" else 1.0
+    sign = measure.sign
     for k, (line, height) in enumerate(zip(lines, heights)):
         if line is None or line.is_empty or not np.isfinite(height) or height <= 0:
             continue

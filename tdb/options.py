@@ -47,6 +47,20 @@ class OutputFormat(Option):
     GPKG = "gpkg"  # a GeoPackage file, which needs a path
 
 
+class Measure(Option):
+    """What a feature filter measures of a form: its height, its depth, or the step of a slope."""
+
+    HEIGHT = "height"  # a ridge, wall or mound stands above the terrain beside it
+    DEPTH = "depth"  # a ditch or pit lies below it
+    STEP = "step"  # an embankment's side: higher ground on one side, lower on the other
+
+    @property
+    def sign(self) -> float:
+        """+1 where the form stands above the terrain, −1 where it lies below: heights times
+        ``sign`` are the form's relief. A step has no side of its own (+1)."""
+        return -1.0 if self is Measure.DEPTH else 1.0
+
+
 E = TypeVar("E", bound=Option)
 
 

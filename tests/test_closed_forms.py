@@ -12,6 +12,7 @@ from ingest.pipeline import ingest
 from queries.match import find
 from queries.relief import ring_extremes, ring_relief
 from tdb.cloud import from_arrays
+from tdb.options import Measure
 from tdb.tiles import SUBGRID, node_lattice
 
 
@@ -49,7 +50,7 @@ def test_a_mound_stands_out_all_round_and_a_ridge_does_not(cx, cy, angle):
     tiles = np.arange(0, 100, 2)
     xg, yg = (a.ravel() for a in np.meshgrid(tiles, np.arange(0, 80, 2)))
     top = lat.tile_nodes(xg, yg).reshape(len(xg), -1).max(axis=1)
-    rel = ring_relief(lat, xg, yg, top, measure="height", tiles=2)
+    rel = ring_relief(lat, xg, yg, top, measure=Measure.HEIGHT, tiles=2)
     mound = (np.abs(xg + 1 - cx) <= 1) & (np.abs(yg + 1 - cy) <= 1)
     ridge = np.abs(-(xg + 1 - 75) * np.sin(angle) + (yg + 1 - 55) * np.cos(angle)) < 2
     assert np.nanmax(rel[mound]) > 0.5  # the dome's top is 1 m over ground 4-6 m away
@@ -58,7 +59,7 @@ def test_a_mound_stands_out_all_round_and_a_ridge_does_not(cx, cy, angle):
     # the same lattice upside down: the pit and not the ditch
     lat = _every_node(cx, cy, angle, sign=-1.0)
     low = lat.tile_nodes(xg, yg).reshape(len(xg), -1).max(axis=1)
-    rel = ring_relief(lat, xg, yg, low, measure="height", tiles=2)
+    rel = ring_relief(lat, xg, yg, low, measure=Measure.HEIGHT, tiles=2)
     assert np.nanmax(rel[mound]) < 0.15  # the mound is a pit upside down
     assert np.nanmax(rel[(np.abs(xg + 1 - cx) <= 1) & (np.abs(yg + 1 - cy - 30) <= 1)]) > 0.5
     ditch = np.abs(-(xg + 1 - 75) * np.sin(angle) + (yg + 1 - 25) * np.cos(angle)) < 2
@@ -90,7 +91,7 @@ def test_on_a_slope_a_mound_still_stands_out_and_a_ridge_does_not(grade, aspect,
     lat = node_lattice(nx.ravel(), ny.ravel(), z.ravel(), 2)
     xg, yg = (a.ravel() for a in np.meshgrid(np.arange(0, 100, 2), np.arange(0, 80, 2)))
     top = lat.tile_nodes(xg, yg).reshape(len(xg), -1).max(axis=1)
-    rel = ring_relief(lat, xg, yg, top, measure="height", tiles=2)
+    rel = ring_relief(lat, xg, yg, top, measure=Measure.HEIGHT, tiles=2)
     mound = (np.abs(xg + 1 - cx) <= 1) & (np.abs(yg + 1 - cy) <= 1)
     ridge = np.abs(-(xg + 1 - 75) * np.sin(angle) + (yg + 1 - 55) * np.cos(angle)) < 2
     assert np.nanmax(rel[mound]) > 0.3  # the filter's least height; a tile's highest node sits on its uphill edge
@@ -101,7 +102,7 @@ def test_on_a_slope_a_mound_still_stands_out_and_a_ridge_does_not(grade, aspect,
 
 def test_ring_relief_is_unknown_at_the_edge_of_the_data():
     lat = node_lattice(np.array([0.0, 0.5, 2.0]), np.array([0.0, 0.0, 0.0]), np.array([1.0, 2.0, 1.0]), 2)
-    rel = ring_relief(lat, np.array([0]), np.array([0]), np.array([2.0]), measure="height", tiles=2)
+    rel = ring_relief(lat, np.array([0]), np.array([0]), np.array([2.0]), measure=Measure.HEIGHT, tiles=2)
     assert np.isnan(rel).all()
 
 
@@ -143,7 +144,7 @@ def test_ring_relief_matches_reading_every_ring_tile(i0, j0, rows, cols, holes, 
         return
     xg, yg = (a.ravel() * 2 for a in np.meshgrid(np.arange(-4, 8), np.arange(-4, 8)))
     top = rng.normal(0, 2, len(xg))
-    measure = "depth" if depth else "height"
+    measure = Measure.DEPTH if depth else Measure.HEIGHT
     got = ring_relief(lat, xg, yg, top, measure=measure, tiles=2)
     sign = -1.0 if depth else 1.0
     ext = {}  # (di, dj) -> each tile's extreme node of that ring tile

@@ -107,3 +107,12 @@ def test_version_stats_round_trip_their_json():
     doc = s.to_json()
     assert doc["tiles_2m"] == 7 and doc["kept_user_classes"] == {"65": 3}
     assert VersionStats.from_json(doc) == s
+
+
+def test_measure_has_one_sign_convention():
+    from tdb.options import Measure, parse
+
+    assert parse(Measure, "Depth") is Measure.DEPTH
+    # relief is height times sign: a ditch 0.5 m below its banks has relief +0.5
+    assert Measure.DEPTH.sign * (9.5 - 10.0) == 0.5
+    assert Measure.HEIGHT.sign * (10.5 - 10.0) == 0.5

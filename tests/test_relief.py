@@ -12,6 +12,7 @@ from queries.centreline import centrelines, elongation
 from queries.filters import BREAK_LINES
 from queries.relief import tile_relief, two_sided_relief
 from tdb.categories import PEAK, PIT, SUBPART_UV, all_categories
+from tdb.options import Measure
 from tdb.tiles import node_lattice
 
 LEVEL = 2
@@ -43,7 +44,7 @@ def relief(fn, measure):
     st.floats(-0.2, 0.2),
     st.floats(-0.2, 0.2),
     st.floats(16.0, 24.0),
-    st.sampled_from(["depth", "height"]),
+    st.sampled_from([Measure.DEPTH, Measure.HEIGHT]),
 )
 def test_a_ditch_or_bank_on_a_slope_stands_out_by_its_depth(size, gx, gy, y0, measure):
     # A 2 m wide V trough (or bank) along x at y0 on a tilted plane: its tiles measure
@@ -64,7 +65,7 @@ def test_a_ditch_or_bank_on_a_slope_stands_out_by_its_depth(size, gx, gy, y0, me
     assert np.all(rel[far] < 1e-9)  # a plane has no relief; on a tilted one it is negative
 
 
-@pytest.mark.parametrize("measure", ["depth", "height"])
+@pytest.mark.parametrize("measure", [Measure.DEPTH, Measure.HEIGHT])
 def test_a_step_has_no_depth_nor_height_but_a_step_measure(measure):
     # A 1 m step (an embankment's side, a ditch rim at a terrace) along y = 20.
     def fn(x, y):
@@ -74,12 +75,12 @@ def test_a_step_has_no_depth_nor_height_but_a_step_measure(measure):
     # The side terrain is read bilinearly from the 2 m corner lattice, which rounds the step's
     # kinks: at most a quarter of the step shows as relief (a rim tile passes no 0.3 m filter).
     assert np.nanmax(rel) <= 0.25 + 1e-9
-    _, yg, step = relief(fn, "step")
+    _, yg, step = relief(fn, Measure.STEP)
     near = np.abs(yg + LEVEL / 2 - 20) <= 2
     assert np.allclose(step[near], 1.0)
 
 
-@pytest.mark.parametrize("measure", ["depth", "height"])
+@pytest.mark.parametrize("measure", [Measure.DEPTH, Measure.HEIGHT])
 def test_along_a_narrow_trench_its_rim_is_no_ridge_across_its_break_line(measure):
     # A 1 m wide, 1.3 m deep trench (or wall) along y = 20; a node on the plane 1 m off its axis.
     # Along x the cells beside the node hold corners in the trench, so read along the rim the
@@ -114,7 +115,7 @@ def test_break_lines_run_between_the_sub_parts_of_each_category():
 
 def test_relief_is_unknown_without_terrain_beside():
     lat = lattice_of(lambda x, y: x * 0.0)
-    rel = two_sided_relief(lat, np.array([1.0]), np.array([1.0]), np.array([-1.0]), measure="depth", reach=4)
+    rel = two_sided_relief(lat, np.array([1.0]), np.array([1.0]), np.array([-1.0]), measure=Measure.DEPTH, reach=4)
     # West and south of the lattice: no terrain there; the north-east diagonal pair is unknown too.
     assert np.isnan(rel[0])
 

@@ -14,6 +14,7 @@ from ingest.pipeline import ingest
 from queries.match import find
 from queries.shoulder import shoulders
 from tdb.cloud import from_arrays
+from tdb.options import Measure
 from tdb.tiles import SUBGRID, node_lattice
 
 
@@ -54,7 +55,10 @@ def test_a_wall_has_no_shoulder_and_a_ridge_has_one_at_bearings_off_the_lattice(
     assert ridge > 0.3  # a 4 m V ridge stands at 0.2-0.6 of its height 0.8-1.6 m off its crest
     # Depth of a ditch: the same form upside down.
     narrow, broad = shoulders(
-        _lattice(angle, flip=True), [_axis(angle, 20), _axis(angle, 50)], np.array([1.5, 1.0]), measure="depth"
+        _lattice(angle, flip=True),
+        [_axis(angle, 20), _axis(angle, 50)],
+        np.array([1.5, 1.0]),
+        measure=Measure.DEPTH,
     )
     assert narrow < 0.1 and broad > 0.3
 
