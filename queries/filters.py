@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from functools import cache
 from importlib import resources
 from pathlib import Path
@@ -59,6 +59,9 @@ BREAK_LINES = _break_lines()
 
 @dataclass(frozen=True)
 class Filter:
+    """A feature filter: which tile features make up the form, and how its tiles join and are
+    measured. The defaults here are the defaults of ``schemas/filter.schema.json``."""
+
     name: str
     features: frozenset[int]
     linear: bool
@@ -110,26 +113,11 @@ def parse_filter(doc: dict[str, Any]) -> Filter:
     if error is not None:
         where = "/".join(map(str, error.absolute_path)) or "filter"
         raise FilterError(f"invalid filter ({where}): {error.message}")
-    codes = frozenset(FEATURE_NAMES.index(f) for f in doc["features"])
-    join = doc.get("join", "lines" if doc["linear"] else "touch")
-    return Filter(
-        doc["name"],
-        codes,
-        doc["linear"],
-        doc.get("level", 2),
-        doc.get("min_tiles", 1),
-        parse(Measure, doc.get("measure", "height")),
-        doc.get("description", ""),
-        join,
-        float(doc.get("min_measure", 0.0)),
-        int(doc.get("gap", 0)),
-        float(doc.get("min_elongation", 0.0)),
-        doc.get("min_shoulder"),
-        doc.get("max_shoulder"),
-        doc.get("broad_width"),
-        bool(doc.get("around", False)),
-        bool(doc.get("facing", False)),
-    )
+    given = {f.name: doc[f.name] for f in fields(Filter) if f.name in doc and f.name != "features"}
+    given.setdefault("join", "lines" if doc["linear"] else "touch")
+    if "measure" in given:
+        given["measure"] = parse(Measure, given["measure"])
+    return Filter(features=frozenset(FEATURE_NAMES.index(f) for f in doc["features"]), **given)
 
 
 def load_filter(path: str | os.PathLike[str]) -> Filter:

@@ -116,3 +116,23 @@ def test_measure_has_one_sign_convention():
     # relief is height times sign: a ditch 0.5 m below its banks has relief +0.5
     assert Measure.DEPTH.sign * (9.5 - 10.0) == 0.5
     assert Measure.HEIGHT.sign * (10.5 - 10.0) == 0.5
+
+
+def test_filter_defaults_are_the_schemas():
+    from dataclasses import fields
+
+    from queries.filters import Filter, _schema
+
+    defaults = {f.name: f.default for f in fields(Filter)}
+    props = _schema()["properties"]
+    stated = {k: v["default"] for k, v in props.items() if "default" in v}
+    assert stated, "the schema states no defaults"
+    for key, value in stated.items():
+        assert defaults[key] == value, key
+    import json
+    from pathlib import Path
+
+    from tdb.tiles import LEVELS
+
+    shipped = json.loads((Path(__file__).parents[1] / "schemas" / "filter.schema.json").read_text())
+    assert shipped["properties"]["level"]["enum"] == props["level"]["enum"] == list(LEVELS)
