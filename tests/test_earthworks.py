@@ -9,12 +9,14 @@ from hypothesis import strategies as st
 
 from ingest.ground import classify_ground
 from ingest.ground.auto import auto_ground
-from ingest.ground.earthworks import elongated_objects, narrow_walls
+from ingest.ground.earthworks import WallShape, elongated_objects, narrow_walls
 from ingest.synth import apply_changes, make_scene, sample
 from ingest.synth.scene import Feature
 from ingest.synth.surface import feature_offset
 from tdb.cloud import GROUND
 from tdb.errors import InputError
+
+SHORT = WallShape(min_length=15.0)  # the bands drawn here are 20 m long, as measured a little less
 
 
 def _band(angle, length, width, rows=90, offset=0.0):
@@ -88,15 +90,15 @@ def test_a_level_free_standing_band_is_a_wall_and_a_rough_or_crowded_one_is_not(
     rng = np.random.default_rng(0)
     level = np.where(band, height + rng.normal(0, 0.03, band.shape), 0.0)
     nothing_tall = np.zeros(band.shape, bool)
-    assert (~np.isnan(narrow_walls(band, level, nothing_tall, cell=1.0)) == band).all()
+    assert (~np.isnan(narrow_walls(band, level, nothing_tall, cell=1.0, shape=SHORT)) == band).all()
     # A hedge: the same band with a top that varies by ±0.5 m, spread evenly over that range in a
     # random order (a random draw from ±0.5 m on ~40 cells can have a median deviation under 0.15 m).
     rough = np.zeros(band.shape)
     rough[band] = height + rng.permutation(np.linspace(-0.5, 0.5, int(band.sum())))
-    assert np.isnan(narrow_walls(band, rough, nothing_tall, cell=1.0)).all()
+    assert np.isnan(narrow_walls(band, rough, nothing_tall, cell=1.0, shape=SHORT)).all()
     # The low band along a building's side: taller points right beside it.
     beside = _band(angle, length, 4, offset=width / 2 + 2.5)  # a 4 m wide roof along one side
-    assert np.isnan(narrow_walls(band & ~beside, level, beside & ~band, cell=1.0)).all()
+    assert np.isnan(narrow_walls(band & ~beside, level, beside & ~band, cell=1.0, shape=SHORT)).all()
 
 
 def test_a_thin_diagonal_wall_stepping_by_knight_moves_is_one_wall():
@@ -108,11 +110,15 @@ def test_a_thin_diagonal_wall_stepping_by_knight_moves_is_one_wall():
     band[5 + 2 * k, 10 + k] = True
     level = np.where(band, 1.1, 0.0)
     nothing_tall = np.zeros(band.shape, bool)
-    assert (~np.isnan(narrow_walls(band, level, nothing_tall, cell=1.0, min_length=20.0)) == band).all()
+    assert (
+        ~np.isnan(narrow_walls(band, level, nothing_tall, cell=1.0, shape=WallShape(min_length=20.0))) == band
+    ).all()
     # With every fifth cell gone, the gaps are two cells wide: pieces of about 10 m, no wall.
     apart = band.copy()
     apart[5 + 2 * k[::5], 10 + k[::5]] = False
-    assert np.isnan(narrow_walls(apart, np.where(apart, 1.1, 0.0), nothing_tall, cell=1.0, min_length=20.0)).all()
+    assert np.isnan(
+        narrow_walls(apart, np.where(apart, 1.1, 0.0), nothing_tall, cell=1.0, shape=WallShape(min_length=20.0))
+    ).all()
 
 
 def test_a_wall_under_crowns_is_judged_on_the_cells_no_crown_hides():
@@ -123,7 +129,8 @@ def test_a_wall_under_crowns_is_judged_on_the_cells_no_crown_hides():
     hidden = band & (rng.random(band.shape) < 0.6)
     top[hidden] = rng.uniform(1.6, 2.5, hidden.sum())
     nothing_tall = np.zeros(band.shape, bool)
-    assert np.isnan(narrow_walls(band, top, nothing_tall, cell=1.0)).all()  # rough, judged on all cells
+    # rough, judged on all cells
+    assert np.isnan(narrow_walls(band, top, nothing_tall, cell=1.0, shape=SHORT)).all()
     level = narrow_walls(band, top, nothing_tall, cell=1.0, hidden=hidden)
     assert (~np.isnan(level) == band).all()
     assert abs(np.nanmedian(level) - 1.3) < 0.05

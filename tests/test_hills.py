@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ingest.ground.auto import AutoParams, auto_ground
-from ingest.ground.hills import point_spacing, smooth_hills
+from ingest.ground.hills import HillShape, point_spacing, smooth_hills
 
 
 def _scene(seed: int, *, density: float = 0.17, hill: float = 7.0, building: float = 8.0):
@@ -43,7 +43,7 @@ def test_the_default_filter_keeps_a_steep_hill_in_sparse_data_and_cuts_the_build
     assert ground[hill].mean() > 0.7
     assert ground[roof].mean() < 0.05
     # Without the hill stage the hill's top is cut: the test above can fail.
-    no_hills = auto_ground(xyz, params=AutoParams(hill_area=1e9))
+    no_hills = auto_ground(xyz, params=AutoParams(hills=HillShape(min_area=1e9)))
     assert no_hills[hill].mean() < ground[hill].mean() - 0.2
 
 
@@ -54,9 +54,9 @@ def test_a_group_standing_over_the_ground_is_no_hill():
     assert found[hill].any()
     assert not found[roof].any()
     # Too small a hill (min_area) or too gentle a cone (slope) finds nothing.
-    assert not smooth_hills(xyz, ~(hill | roof), cell=3.5, min_area=1e4).any()
+    assert not smooth_hills(xyz, ~(hill | roof), cell=3.5, shape=HillShape(min_area=1e4)).any()
     gentle = {"rise": 0.0, "slope": 0.05, "steep_slope": 0.05}
-    assert not smooth_hills(xyz, ~(hill | roof), cell=3.5, **gentle).any()
+    assert not smooth_hills(xyz, ~(hill | roof), cell=3.5, shape=HillShape(**gentle)).any()
 
 
 def _heap(seed: int):
@@ -77,11 +77,13 @@ def test_a_steep_heap_that_meets_the_ground_is_kept_and_a_roof_is_not():
     for seed in range(6):
         xyz, top, roof = _heap(seed)
         others = ~(top | roof)
-        gentle += smooth_hills(xyz, others, cell=3.5, steep_slope=1.0)[top].any()  # the 45° cone alone
+        gentle += smooth_hills(xyz, others, cell=3.5, shape=HillShape(steep_slope=1.0))[
+            top
+        ].any()  # the 45° cone alone
         found = smooth_hills(xyz, others, cell=3.5)
         steep += found[top].any()
         assert not found[roof].any()
         # without a rim that meets the ground the steeper cone does not apply
-        no_foot += smooth_hills(xyz, others, cell=3.5, foot_share=2.0)[top].any()
+        no_foot += smooth_hills(xyz, others, cell=3.5, shape=HillShape(foot_share=2.0))[top].any()
     assert gentle == 0 and no_foot == 0
     assert steep >= 4  # of 6 (five when measured)

@@ -27,16 +27,16 @@ and needs no triangulation, which took three quarters of the time.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from ingest.ground.earthworks import elongated_objects, narrow_walls
+from ingest.ground.earthworks import EarthworkShape, WallShape, elongated_objects, narrow_walls
 from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of
-from ingest.ground.hills import point_spacing, smooth_hills
+from ingest.ground.hills import HillShape, point_spacing, smooth_hills
 from ingest.ground.morphology import progressive_opening
 from ingest.ground.outliers import ground_spikes, low_outliers, sunken_groups
 from ingest.ground.refill import LineFill
@@ -58,27 +58,9 @@ class AutoParams:
     pit_window: float = 8.0  # widest low-outlier cluster (m, radius)
     pit_slope: float = 3.0  # pit walls steeper than this, beyond pit_depth, are not terrain
     pit_depth: float = 2.0
-    earthwork_length: float = 15.0  # long, narrow, low objects are terrain (ingest.ground.earthworks)
-    earthwork_ratio: float = 4.0
-    earthwork_min_width: float = 2.5
-    earthwork_width: float = 8.0
-    earthwork_height: float = 2.5
-    wall_least_height: float = 0.4  # points this far above the ground may be on a wall (m)
-    wall_length: float = 20.0  # shortest wall (m): bands are joined across gaps, rows of cars too
-    wall_width: float = 3.5  # widest band of cells a wall's points fill (m)
-    wall_roughness: float = 0.15  # a wall's top is level within this (m, median absolute deviation)
-    wall_clear_share: float = 0.3  # least share of a wall's cells with no point higher than any wall
-    wall_above_top: float = 0.3  # points this far above a wall's top (m) are not the wall
-    wall_tall_share: float = 0.1  # largest share of a wall's cells beside a point higher than any wall
-    hill_spacings: float = 1.5  # a hill's cells span this many point spacings (at least ``cell``)
-    hill_rise: float = 0.5  # a hill lies under a cone of this rise and slope over the ground beside it
-    hill_slope: float = 1.0
-    hill_share: float = 0.95
-    hill_area: float = 100.0  # m²
-    hill_steep_slope: float = 1.5  # ... or a steeper cone, where the group's rim meets the ground:
-    hill_steep_share: float = 0.9
-    hill_foot: float = 1.0  # rim cells at most this far above the ground beside them (m)
-    hill_foot_share: float = 0.1
+    earthworks: EarthworkShape = field(default_factory=EarthworkShape)  # long, narrow, low objects are terrain
+    walls: WallShape = field(default_factory=WallShape)  # free-standing walls are terrain; rows of cars are not
+    hills: HillShape = field(default_factory=HillShape)  # groups that rise smoothly out of the ground are terrain
 
 
 def ground_surface(
@@ -191,9 +173,9 @@ def _walls(
     """Points of free-standing walls (:func:`ingest.ground.earthworks.narrow_walls`), from each
     point's height ``h`` above the settled ground surface and, where known, each point's return
     number and its pulse's number of returns."""
-    low = ~is_ground & (h > p.wall_least_height) & (h <= p.earthwork_height)
+    low = ~is_ground & (h > p.walls.least_height) & (h <= p.walls.max_height)
     row, col = grid.index(pts[:, :2])
-    higher = h > p.earthwork_height
+    higher = h > p.walls.max_height
     tall = np.zeros(grid.shape, bool)
     hidden = None
     if returns is None:
@@ -221,37 +203,17 @@ def _walls(
         tall,
         cell=grid.cell,
         hidden=hidden,
-        min_length=p.wall_length,
-        min_ratio=p.earthwork_ratio,
-        max_width=p.wall_width,
-        max_height=p.earthwork_height,
-        max_roughness=p.wall_roughness,
-        max_tall_share=p.wall_tall_share,
-        min_clear_share=p.wall_clear_share,
+        shape=p.walls,
     )
     # NaN (no wall) compares False; points well above a wall's top are leaves over it.
-    return low & (h <= walls[row, col] + p.wall_above_top)
+    return low & (h <= walls[row, col] + p.walls.above_top)
 
 
 def _hills(grid: Grid, pts: NDArray[np.float64], is_ground: NDArray[np.bool_], p: AutoParams) -> NDArray[np.bool_]:
     """Cells of ``grid`` whose lowest point is the lowest of a hill's cell
     (:func:`ingest.ground.hills.smooth_hills`)."""
-    cell = max(p.cell, p.hill_spacings * point_spacing(pts[:, :2]))
-    found = np.flatnonzero(
-        smooth_hills(
-            pts,
-            is_ground,
-            cell=cell,
-            rise=p.hill_rise,
-            slope=p.hill_slope,
-            min_share=p.hill_share,
-            min_area=p.hill_area,
-            steep_slope=p.hill_steep_slope,
-            steep_share=p.hill_steep_share,
-            foot=p.hill_foot,
-            foot_share=p.hill_foot_share,
-        )
-    )
+    cell = max(p.cell, p.hills.spacings * point_spacing(pts[:, :2]))
+    found = np.flatnonzero(smooth_hills(pts, is_ground, cell=cell, shape=p.hills))
     out = np.zeros(grid.shape, bool)
     out[grid.index(pts[found, :2])] = True
     return out
@@ -276,11 +238,7 @@ def _earthworks(
             cells,
             np.where(cells, zmin - centre, 0.0),
             cell=grid.cell,
-            min_length=p.earthwork_length,
-            min_ratio=p.earthwork_ratio,
-            min_width=p.earthwork_min_width,
-            max_width=p.earthwork_width,
-            max_height=p.earthwork_height,
+            shape=p.earthworks,
         )
 
     # The passes creep up a steep ridge here and there and leave its top cut in short pieces,

@@ -21,9 +21,43 @@ free (a low band along a building or under trees has taller points beside it).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
+
+
+@dataclass(frozen=True)
+class EarthworkShape:
+    """The shape of a group of object cells that is an earthwork (a dike, an embankment's crest):
+    long (m), long for its width (length / width), narrow (m) and low (m)."""
+
+    min_length: float = 15.0
+    min_ratio: float = 4.0
+    min_width: float = 2.5
+    max_width: float = 8.0
+    max_height: float = 2.5
+
+
+@dataclass(frozen=True)
+class WallShape:
+    """A free-standing wall: points ``least_height`` to ``max_height`` m above the ground, in a band
+    at least ``min_length`` m long, ``min_ratio`` times as long as wide and at most ``max_width`` m
+    wide; its top level within ``max_roughness`` m (median absolute deviation); at most
+    ``max_tall_share`` of its cells beside a point higher than any wall, at least
+    ``min_clear_share`` of them with none over them; points over ``above_top`` m above its top are
+    leaves, not the wall. Ratio and height are an earthwork's."""
+
+    least_height: float = 0.4
+    min_length: float = 20.0
+    min_ratio: float = EarthworkShape.min_ratio
+    max_width: float = 3.5
+    max_height: float = EarthworkShape.max_height
+    max_roughness: float = 0.15
+    max_tall_share: float = 0.1
+    min_clear_share: float = 0.3
+    above_top: float = 0.3
 
 
 def elongated_objects(
@@ -31,11 +65,7 @@ def elongated_objects(
     height: NDArray[np.float64],
     *,
     cell: float,
-    min_length: float = 15.0,
-    min_ratio: float = 4.0,
-    min_width: float = 2.5,
-    max_width: float = 8.0,
-    max_height: float = 2.5,
+    shape: EarthworkShape = EarthworkShape(),
 ) -> NDArray[np.bool_]:
     """Cells of the 8-connected groups of ``objects`` that are long, narrow and low.
 
@@ -44,9 +74,8 @@ def elongated_objects(
     objects : (rows, cols) cells whose lowest point is not ground.
     height : (rows, cols) height (m) of each cell's lowest point above the ground surface.
     cell : cell size (m).
-    min_length, min_ratio, min_width, max_width, max_height : the shape a group must have (m,
-        length / width, m, m, m).
-        Length and width are those of the rectangle with the group's second moments.
+    shape : the shape a group must have. Length and width are those of the rectangle with the
+        group's second moments.
     """
     labels, n = ndimage.label(objects, structure=np.ones((3, 3)))
     if n == 0:
@@ -63,8 +92,14 @@ def elongated_objects(
     length = (np.sqrt(12 * (half + gap)) + 1) * cell
     width = (np.sqrt(12 * np.maximum(half - gap, 0.0)) + 1) * cell
     top = _group_max(height, labels, n)
-    ok = (length >= min_length) & (length >= min_ratio * width) & (width >= min_width) & (width <= max_width)
-    ok &= top <= max_height
+    s = shape
+    ok = (
+        (length >= s.min_length)
+        & (length >= s.min_ratio * width)
+        & (width >= s.min_width)
+        & (width <= s.max_width)
+    )
+    ok &= top <= s.max_height
     ok[0] = False
     return np.asarray(ok[labels], bool)
 
@@ -85,13 +120,7 @@ def narrow_walls(
     *,
     cell: float,
     hidden: NDArray[np.bool_] | None = None,
-    min_length: float = 15.0,
-    min_ratio: float = 4.0,
-    max_width: float = 3.5,
-    max_height: float = 2.5,
-    max_roughness: float = 0.15,
-    max_tall_share: float = 0.1,
-    min_clear_share: float = 0.3,
+    shape: WallShape = WallShape(),
 ) -> NDArray[np.float64]:
     """The height of the top of the free-standing wall over each cell of ``band`` whose group
     (8-connected, joined across single empty cells) is one; NaN elsewhere.
@@ -105,12 +134,9 @@ def narrow_walls(
     hidden : (rows, cols) cells whose low points may be leaves as well as the wall's top (a crown
         over the wall), so the top's height and roughness are judged on the other cells. None:
         the ``tall`` cells.
-    min_length, min_ratio, max_width, max_height : the shape a group must have (m, length /
-        width, m, m). The width is twice the mean distance of the group's cells to its edge, so
-        that curved walls are as narrow as straight ones; the length is the area over the width.
-    max_roughness : largest median absolute deviation (m) of the cells' tops about their median.
-    max_tall_share : largest share of the group's cells that touch a ``tall`` cell.
-    min_clear_share : least share of the group's cells that are not ``hidden``.
+    shape : the shape a group must have (:class:`WallShape`). The width is twice the mean
+        distance of the group's cells to its edge, so that curved walls are as narrow as straight
+        ones; the length is the area over the width. The clear share counts cells not ``hidden``.
     """
     # Groups are joined across single empty cells: where a wall's top holds no point, or none
     # high enough, one survey would otherwise split it where the next does not. Two cells with
@@ -132,7 +158,9 @@ def narrow_walls(
     roughness = np.asarray(ndimage.median(np.abs(top - middle[clear]), clear, index), np.float64)
     beside_tall = ndimage.binary_dilation(tall, structure=np.ones((3, 3)))
     tall_share = np.bincount(labels.ravel(), beside_tall.ravel(), minlength=n + 1) / np.maximum(area, 1.0)
-    ok = (length >= min_length) & (length >= min_ratio * width) & (width <= max_width) & (highest <= max_height)
-    ok &= (roughness <= max_roughness) & (tall_share <= max_tall_share) & (clear_area >= min_clear_share * area)
+    s = shape
+    ok = (length >= s.min_length) & (length >= s.min_ratio * width) & (width <= s.max_width)
+    ok &= (highest <= s.max_height) & (roughness <= s.max_roughness) & (tall_share <= s.max_tall_share)
+    ok &= clear_area >= s.min_clear_share * area
     ok[0] = False
     return np.where(ok[labels], middle[labels], np.nan)

@@ -19,6 +19,8 @@ hill in sparse data is one group and not hundreds of single cells.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
@@ -31,19 +33,31 @@ def point_spacing(xy: NDArray[np.float64], *, block: float = 5.0) -> float:
     return float(np.sqrt(occupied_area(xy, block=block) / max(len(xy), 1)))
 
 
+@dataclass(frozen=True)
+class HillShape:
+    """A hill: a group of object cells, of cells ``spacings`` point spacings wide, under a cone of
+    ``rise`` m and ``slope`` (rise/run) over the nearest ground for ``min_share`` of its cells and
+    of its rim cells, at least ``min_area`` m²; or, where at least ``foot_share`` of its rim lies
+    at most ``foot`` m over the ground (it meets the ground at its foot), under a cone of
+    ``steep_slope`` for ``steep_share``."""
+
+    spacings: float = 1.5
+    rise: float = 0.5
+    slope: float = 1.0
+    min_share: float = 0.95
+    min_area: float = 100.0
+    steep_slope: float = 1.5
+    steep_share: float = 0.9
+    foot: float = 1.0
+    foot_share: float = 0.1
+
+
 def smooth_hills(
     xyz: NDArray[np.float64],
     ground: NDArray[np.bool_],
     *,
     cell: float,
-    rise: float = 0.5,
-    slope: float = 1.0,
-    min_share: float = 0.95,
-    min_area: float = 100.0,
-    steep_slope: float = 1.5,
-    steep_share: float = 0.9,
-    foot: float = 1.0,
-    foot_share: float = 0.1,
+    shape: HillShape = HillShape(),
 ) -> NDArray[np.bool_]:
     """Points that are the lowest of their cell in a group of object cells that is a hill.
 
@@ -52,13 +66,8 @@ def smooth_hills(
     xyz : (N, 3) points.
     ground : (N,) the ground found so far.
     cell : cell size (m) of the groups' grid.
-    rise, slope : the cone over the nearest ground point under which a hill's cells lie (m, rise/run).
-    min_share : least share of a group's cells, and of its rim cells, under the cone.
-    min_area : least area (m²) of a hill.
-    steep_slope, steep_share : a steeper cone, and the share of cells under it, for a group that
-        meets the ground at its foot.
-    foot, foot_share : a group meets the ground where at least ``foot_share`` of its rim cells lie
-        at most ``foot`` m above the nearest ground.
+    shape : what makes a group a hill (:class:`HillShape`; its ``spacings`` is the caller's, to
+        size ``cell``).
     """
     grid = Grid.covering(xyz[:, :2], cell)
     cells = CellSort.of(grid, xyz)
@@ -82,13 +91,14 @@ def smooth_hills(
     count, rims = per_group(objects), per_group(rim)
 
     def under(cone: float, share: float) -> NDArray[np.bool_]:
-        below = objects & (h <= rise + cone * d)
+        below = objects & (h <= shape.rise + cone * d)
         return (per_group(below) >= share * count) & (per_group(below & rim) >= share * rims)
 
     # A steeper group is still terrain where part of its rim runs into the ground (the foot or
     # the top of a slope); a roof stands over the ground all round, however near it is.
-    meets = per_group(rim & (h <= foot)) >= foot_share * rims
-    ok = (under(slope, min_share) | (under(steep_slope, steep_share) & meets)) & (count * cell * cell >= min_area)
+    meets = per_group(rim & (h <= shape.foot)) >= shape.foot_share * rims
+    ok = under(shape.slope, shape.min_share) | (under(shape.steep_slope, shape.steep_share) & meets)
+    ok &= count * cell * cell >= shape.min_area
     ok[0] = False
     out[lowest[ok[labels] & objects]] = True
     return out
