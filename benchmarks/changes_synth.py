@@ -23,7 +23,7 @@ import shapely
 
 import tdb
 from benchmarks.common import save_runs, synthetic_runs
-from ingest.pipeline import ingest
+from ingest.pipeline import IngestOptions, ingest
 from ingest.synth import apply_changes, make_scene, sample
 from queries.changes import detect
 from queries.dod import difference_of_surfaces
@@ -42,8 +42,10 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
     later, changes = apply_changes(scene, seed=seed)
     db = tdb.open(workdir / f"c{seed}.tdb", create=True)
     # the scenes' low outliers (class 7) stay in: the filter must find them, as in an unclassified survey
-    ingest(sample(scene, density=density, seed=seed), db, version="before", exclude=())
-    ingest(sample(later, density=density, seed=seed + 1000), db, version="after", exclude=())
+    ingest(sample(scene, density=density, seed=seed), db, version="before", options=IngestOptions(exclude=()))
+    ingest(
+        sample(later, density=density, seed=seed + 1000), db, version="after", options=IngestOptions(exclude=())
+    )
     t0 = time.perf_counter()
     found = detect(db, "before", "after")
     diff_s = time.perf_counter() - t0
@@ -70,8 +72,8 @@ def km2_pair(workdir: Path, *, density: float, size: float = 1000.0, rounds: int
         later, _ = apply_changes(later, seed=100 + k)
     path = workdir / "km2.tdb"
     db = tdb.open(path, create=True)
-    ingest(sample(scene, density=density, seed=1), db, version="before", exclude=())
-    ingest(sample(later, density=density, seed=1001), db, version="after", exclude=())
+    ingest(sample(scene, density=density, seed=1), db, version="before", options=IngestOptions(exclude=()))
+    ingest(sample(later, density=density, seed=1001), db, version="after", options=IngestOptions(exclude=()))
     return path
 
 

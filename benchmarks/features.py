@@ -24,7 +24,7 @@ import shapely
 
 import tdb
 from benchmarks.common import save_runs, synthetic_runs
-from ingest.pipeline import ingest
+from ingest.pipeline import IngestOptions, ingest
 from ingest.synth import make_scene, sample
 from queries.match import find
 from queries.run import run
@@ -45,7 +45,7 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
     scene = make_scene(seed=seed, size=size)
     db = tdb.open(workdir / f"s{seed}.tdb", create=True)
     # the scenes' low outliers (class 7) stay in: the filter must find them, as in an unclassified survey
-    ingest(sample(scene, density=density, seed=seed), db, version="v", exclude=())
+    ingest(sample(scene, density=density, seed=seed), db, version="v", options=IngestOptions(exclude=()))
     out = {}
     size_class = lambda f: f.kind == "ditch" and f.size >= 0.5 and f.width >= 1.5  # noqa: E731
     for name, cut, forms, ask in (

@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from benchmarks.common import DATA, save
-from ingest.pipeline import survey
+from ingest.pipeline import IngestOptions, survey
 from ingest.readers import read
 from tdb.classes import NOISE
 from tdb.fill import fill_nearest
@@ -61,7 +61,7 @@ def main() -> None:
     for folder, name, classes in runs:
         path = DATA / folder / name
         t0 = time.perf_counter()
-        s = survey(read(path), exclude=NOISE if classes is None else classes)
+        s = survey(read(path), options=IngestOptions(exclude=NOISE if classes is None else classes))
         if classes is not None:
             name = f"{name} (classes {','.join(map(str, classes))} excluded)"
         st = s.model.stats

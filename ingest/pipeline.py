@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import os
-from collections.abc import Iterable
 from dataclasses import dataclass
-from dataclasses import replace as replace_crs
 from typing import Any
 
 import numpy as np
@@ -18,7 +17,7 @@ from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
 from tdb.classes import NOISE, excluded, parse_classes, user_classes
 from tdb.cloud import PointCloud
-from tdb.database import Database, Version
+from tdb.database import Database, Version, VersionInfo
 from tdb.errors import Remedy, VersionExistsError
 from tdb.options import GroundMethod, LabelScheme, parse
 from tdb.progress import Progress, or_silent
@@ -43,34 +42,53 @@ class Survey:
     model: TerrainModel
 
 
+@dataclass(frozen=True)
+class IngestOptions:
+    """How a survey is read and modelled.
+
+    ``crs`` overrides (or supplies) the source's coordinate system, a file's or a cloud's alike;
+    ``labels`` says what a text file's fourth column means; ``assume_metres`` accepts a source
+    with no CRS as metres. ``method`` is the ground filter, ``resolution`` the dense model's post
+    spacing (m), ``flat_threshold`` the height range (m) under which a tile is flat (None: from
+    the measured ground noise). Points of the ``exclude`` classes (codes, or text like
+    ``"7,18,65"``) are never ground; the default is ASPRS noise (:data:`tdb.classes.NOISE`).
+    """
+
+    crs: Any = None
+    labels: LabelScheme = LabelScheme.ASPRS
+    assume_metres: bool = False
+    method: GroundMethod = GroundMethod.AUTO
+    resolution: float = DEFAULT_RESOLUTION
+    flat_threshold: float | None = None
+    exclude: tuple[int, ...] = NOISE
+
+    def __post_init__(self) -> None:
+        # user text is accepted and checked once, here
+        object.__setattr__(self, "labels", parse(LabelScheme, self.labels))
+        object.__setattr__(self, "method", parse(GroundMethod, self.method))
+        object.__setattr__(self, "exclude", parse_classes(self.exclude))
+
+
 def flat_threshold_for(noise: float) -> float:
     return max(MIN_FLAT, NOISE_FACTOR * noise)
 
 
-def survey(
-    cloud: PointCloud,
-    *,
-    method: str | GroundMethod = GroundMethod.AUTO,
-    resolution: float = DEFAULT_RESOLUTION,
-    flat_threshold: float | None = None,
-    assume_metres: bool = False,
-    exclude: Iterable[int] = NOISE,
-    progress: Progress | None = None,
-) -> Survey:
+def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress: Progress | None = None) -> Survey:
     """Derive the terrain model of one cloud (pure: nothing is written).
 
     ``progress`` (:mod:`tdb.progress`) is told each step as it starts, and the ground filter's
-    tiles as they finish. Points of the ``exclude`` classes (default ASPRS noise) are never ground.
+    tiles as they finish. ``options.crs`` and ``options.labels`` are for reading: see :func:`ingest`.
     """
+    o = options or IngestOptions()
     report = or_silent(progress)
     report("units", 0, 1)
-    metric = to_metres(cloud, assume_metres=assume_metres)
-    ground = classify_ground(metric, method=parse(GroundMethod, method), progress=report, exclude=exclude)
+    metric = to_metres(cloud, assume_metres=o.assume_metres)
+    ground = classify_ground(metric, method=o.method, progress=report, exclude=o.exclude)
     report("dense model", 0, 1)
     gxyz = metric.xyz[ground]
-    dtm = dense_model(gxyz, resolution=resolution, crs=metric.crs)
+    dtm = dense_model(gxyz, resolution=o.resolution, crs=metric.crs)
     noise = ground_noise(gxyz)
-    threshold = flat_threshold if flat_threshold is not None else flat_threshold_for(noise)
+    threshold = o.flat_threshold if o.flat_threshold is not None else flat_threshold_for(noise)
     report("categories and reduction", 0, 1)
     model = build(dtm, flat_threshold=threshold, n=SUBGRID)
     return Survey(metric, ground, dtm, noise, threshold, model)
@@ -82,78 +100,64 @@ def ingest(
     *,
     version: str,
     acquired: dt.date | None = None,
-    method: str | GroundMethod = GroundMethod.AUTO,
-    resolution: float = DEFAULT_RESOLUTION,
-    flat_threshold: float | None = None,
     replace: bool = False,
-    crs: Any = None,
-    labels: str | LabelScheme = LabelScheme.ASPRS,
-    assume_metres: bool = False,
-    exclude: str | Iterable[int] = NOISE,
+    options: IngestOptions | None = None,
     progress: Progress | None = None,
 ) -> Version:
     """Ingest one survey into ``db`` as ``version``, in one transaction.
 
-    ``crs`` overrides (or supplies) the source's coordinate system, a file's or a cloud's alike;
-    ``labels`` says what a text file's fourth column means. ``exclude``: class codes (or text like
-    ``"7,18,65"``) of points that are never ground; the default is ASPRS noise
-    (:data:`tdb.classes.NOISE`). ``progress``: see :mod:`tdb.progress`.
+    ``options``: how the source is read and modelled (:class:`IngestOptions`); ``progress``: see
+    :mod:`tdb.progress`.
 
     Raises
     ------
     VersionExistsError
         If ``version`` exists and ``replace`` is false (checked before any work).
     """
-    exclude = parse_classes(exclude)
+    o = options or IngestOptions()
     if not replace and any(v.name == version for v in db.versions()):
         raise VersionExistsError(f"{db.name}: version {version!r} exists", remedy=Remedy.REPLACE)
     report = or_silent(progress)
     report("read", 0, 1)
-    cloud = _cloud(source, crs=crs, labels=labels)
-    result = survey(
-        cloud,
-        method=method,
-        resolution=resolution,
-        flat_threshold=flat_threshold,
-        assume_metres=assume_metres,
-        exclude=exclude,
-        progress=report,
-    )
+    cloud = _cloud(source, o)
+    result = survey(cloud, options=o, progress=report)
     m = result.model
     assert m.stats is not None
     stats = VersionStats(
         reduction=m.stats,
         points=len(cloud),
         ground_points=int(result.ground.sum()),
-        excluded_points=int(excluded(cloud.classification, exclude).sum()),
-        kept_user_classes={int(c): n for c, n in user_classes(cloud.classification, exclude).items()},
+        excluded_points=int(excluded(cloud.classification, o.exclude).sum()),
+        kept_user_classes={int(c): n for c, n in user_classes(cloud.classification, o.exclude).items()},
         noise_m=round(result.noise, 4),
         flat_threshold_m=round(result.flat_threshold, 3),
         bounds=result.dtm.bounds,
     )
     params = {
-        "method": str(parse(GroundMethod, method)),
-        "resolution": resolution,
+        "method": str(o.method),
+        "resolution": o.resolution,
         "subgrid": SUBGRID,
         "flat_threshold": result.flat_threshold,
-        "exclude_classes": list(exclude),
+        "exclude_classes": list(o.exclude),
     }
     return db.write_version(
         version,
         levels={lv: (t.xg, t.yg, t.code) for lv, t in m.levels.items()},
         points=(m.x, m.y, m.z, m.n),
-        acquired=acquired,
-        source=str(cloud.source),
-        crs=None if result.cloud.crs is None else result.cloud.crs.to_wkt(),
-        params=params,
-        stats=stats,
+        info=VersionInfo(
+            acquired=acquired,
+            source=str(cloud.source),
+            crs=None if result.cloud.crs is None else result.cloud.crs.to_wkt(),
+            params=params,
+            stats=stats,
+        ),
         replace=replace,
         progress=report,
     )
 
 
-def _cloud(source: str | os.PathLike[str] | PointCloud, *, crs: Any, labels: str | LabelScheme) -> PointCloud:
-    """The source's points, with ``crs`` in place of their own where given."""
+def _cloud(source: str | os.PathLike[str] | PointCloud, options: IngestOptions) -> PointCloud:
+    """The source's points, with the options' CRS in place of their own where given."""
     if not isinstance(source, PointCloud):
-        return read(source, crs=crs, labels=labels)
-    return source if crs is None else replace_crs(source, crs=as_crs(crs))
+        return read(source, crs=options.crs, labels=options.labels)
+    return source if options.crs is None else dataclasses.replace(source, crs=as_crs(options.crs))

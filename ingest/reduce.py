@@ -64,7 +64,7 @@ def rebuild_error(tiles: NDArray[np.float64], keep: NDArray[np.bool_], *, n: int
     return np.where(np.isnan(tiles), 0.0, np.where(np.isnan(rebuilt), np.inf, err))
 
 
-def refine(
+def refine(  # noqa: PLR0913 (a numeric kernel: the tiles' four arrays and its budget)
     tiles: NDArray[np.float64],
     codes: NDArray[np.uint8],
     ti: NDArray[np.int64],

@@ -114,6 +114,8 @@ class _Parser:
         return float(self.expect("number").text)
 
     def parse(self) -> Query:
+        """query := SELECT name FROM version [TO version] [WHERE cond {AND cond}] [AT LEVEL n]
+        [ORDER BY attr [ASC|DESC]] [LIMIT n]"""
         self.expect("kw", "select")
         what = self.expect("name").text.lower()
         self.expect("kw", "from")
@@ -125,32 +127,41 @@ class _Parser:
             while self.accept("kw", "and"):
                 self.condition(q)
         if self.accept("kw", "at"):
-            self.expect("kw", "level")
-            tok = self.peek()
-            level = self.number()
-            if level not in LEVELS:
-                raise self.error(f"level must be one of {', '.join(map(str, LEVELS))}", tok)
-            q.level = int(level)
+            self.level(q)
         if self.accept("kw", "order"):
-            self.expect("kw", "by")
-            t = self.peek()
-            if t.kind == "name" or (t.kind == "kw" and t.text == "category"):
-                self.i += 1
-            else:
-                raise self.error("expected an attribute to order by")
-            q.order_by = t.text.lower()
-            if self.accept("kw", "desc"):
-                q.descending = True
-            else:
-                self.accept("kw", "asc")
+            self.order(q)
         if self.accept("kw", "limit"):
-            tok = self.peek()
-            count = self.number()
-            if count != int(count) or count < 0:
-                raise self.error("LIMIT takes a whole number", tok)
-            q.limit = int(count)
+            self.limit(q)
         self.expect("end")
         return q
+
+    def level(self, q: Query) -> None:
+        self.expect("kw", "level")
+        tok = self.peek()
+        level = self.number()
+        if level not in LEVELS:
+            raise self.error(f"level must be one of {', '.join(map(str, LEVELS))}", tok)
+        q.level = int(level)
+
+    def order(self, q: Query) -> None:
+        self.expect("kw", "by")
+        t = self.peek()
+        if t.kind == "name" or (t.kind == "kw" and t.text == "category"):
+            self.i += 1
+        else:
+            raise self.error("expected an attribute to order by")
+        q.order_by = t.text.lower()
+        if self.accept("kw", "desc"):
+            q.descending = True
+        else:
+            self.accept("kw", "asc")
+
+    def limit(self, q: Query) -> None:
+        tok = self.peek()
+        count = self.number()
+        if count != int(count) or count < 0:
+            raise self.error("LIMIT takes a whole number", tok)
+        q.limit = int(count)
 
     def version(self) -> str:
         t = self.peek()
@@ -160,48 +171,61 @@ class _Parser:
         raise self.error("expected a version name")
 
     def condition(self, q: Query) -> None:
+        """cond := bbox(x0, y0, x1, y1) | category IN (n, …) | attr op number | text-attr (= | !=) 'text'
+        | text-attr IN ('text', …)"""
         t = self.peek()
         if self.accept("kw", "bbox"):
-            self.expect("punct", "(")
-            vals = [self.number()]
-            for _ in range(3):
-                self.expect("punct", ",")
-                vals.append(self.number())
-            self.expect("punct", ")")
-            if not (vals[2] > vals[0] and vals[3] > vals[1]):
-                raise self.error("bbox needs x0 < x1 and y0 < y1", t)
-            q.bbox = (vals[0], vals[1], vals[2], vals[3])
+            self.bbox(q, t)
         elif self.accept("kw", "category"):
-            self.expect("kw", "in")
-            self.expect("punct", "(")
-            codes = [self.number()]
-            while self.accept("punct", ","):
-                codes.append(self.number())
-            self.expect("punct", ")")
-            if any(c != int(c) or not 0 <= c <= 255 for c in codes):
-                raise self.error("category codes are whole numbers 0..255", t)
-            q.categories = [int(c) for c in codes]
+            self.categories(q, t)
         elif t.kind == "name" and t.text.lower() in ATTRIBUTES:
             self.i += 1
             op = self.expect("op").text
             q.conditions.append(Condition(t.text.lower(), op, self.number()))
         elif t.kind == "name" and t.text.lower() in TEXT_ATTRIBUTES:
             self.i += 1
-            if self.accept("kw", "in"):
-                self.expect("punct", "(")
-                texts = [self.expect("text").text]
-                while self.accept("punct", ","):
-                    texts.append(self.expect("text").text)
-                self.expect("punct", ")")
-                q.conditions.append(Condition(t.text.lower(), "in", tuple(texts)))
-                return
-            compare = self.peek()
-            if not self.accept("op", "=") and not self.accept("op", "!="):
-                raise self.error("text compares with =, != or IN (...)", compare)
-            q.conditions.append(Condition(t.text.lower(), compare.text, self.expect("text").text))
+            self.text_condition(q, t.text.lower())
         else:
             names = ", ".join(sorted(ATTRIBUTES | TEXT_ATTRIBUTES))
             raise self.error(f"expected bbox(...), category IN (...) or one of {names}")
+
+    def numbers(self) -> list[float]:
+        """( n {, n} )"""
+        self.expect("punct", "(")
+        values = [self.number()]
+        while self.accept("punct", ","):
+            values.append(self.number())
+        self.expect("punct", ")")
+        return values
+
+    def bbox(self, q: Query, at: Token) -> None:
+        vals = self.numbers()
+        if len(vals) != 4:
+            raise self.error("bbox takes four numbers: x0, y0, x1, y1", at)
+        if not (vals[2] > vals[0] and vals[3] > vals[1]):
+            raise self.error("bbox needs x0 < x1 and y0 < y1", at)
+        q.bbox = (vals[0], vals[1], vals[2], vals[3])
+
+    def categories(self, q: Query, at: Token) -> None:
+        self.expect("kw", "in")
+        codes = self.numbers()
+        if any(c != int(c) or not 0 <= c <= 255 for c in codes):
+            raise self.error("category codes are whole numbers 0..255", at)
+        q.categories = [int(c) for c in codes]
+
+    def text_condition(self, q: Query, attribute: str) -> None:
+        if self.accept("kw", "in"):
+            self.expect("punct", "(")
+            texts = [self.expect("text").text]
+            while self.accept("punct", ","):
+                texts.append(self.expect("text").text)
+            self.expect("punct", ")")
+            q.conditions.append(Condition(attribute, "in", tuple(texts)))
+            return
+        compare = self.peek()
+        if not self.accept("op", "=") and not self.accept("op", "!="):
+            raise self.error("text compares with =, != or IN (...)", compare)
+        q.conditions.append(Condition(attribute, compare.text, self.expect("text").text))
 
 
 def parse(text: str) -> Query:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import shapely
 from numpy.typing import NDArray
@@ -86,7 +88,18 @@ def find(
     return match_tiles(xg, yg, code, node_lattice(px, py, pz, lv), flt, level=lv, evidence=evidence)
 
 
-def match_tiles(
+@dataclass(frozen=True)
+class _Candidates:
+    """The tiles that stand out enough to join an object: indices into the tiles given, their
+    relief and extreme nodes, and the objects they group into (each: its tiles, its measure)."""
+
+    keep: NDArray[np.intp]
+    ex: NDArray[np.float64]
+    ey: NDArray[np.float64]
+    objects: list[tuple[NDArray[np.intp], float]]
+
+
+def match_tiles(  # noqa: PLR0913 (the tiles' three arrays, their lattice and the filter)
     xg: NDArray[np.int64],
     yg: NDArray[np.int64],
     code: NDArray[np.uint8],
@@ -102,11 +115,50 @@ def match_tiles(
     carry their tiles and measure only (empty geometry, length NaN, no shoulder test: a
     shoulder needs the centre line): what typing needs, where a ridge and a wall are one form.
     ``evidence`` is :func:`queries.filters.candidates` of these tiles, where the caller has it."""
-    lv = level
-    own, facing = evidence if evidence is not None else candidates(xg, yg, code, flt, lv)
+    found = _objects(xg, yg, code, lattice, flt, level=level, evidence=evidence)
+    if not shapes:
+        return [
+            Match(flt.name, level, found.keep[g], shapely.GeometryCollection(), float("nan"), m)
+            for g, m in found.objects
+        ]
+    geoms = _centre_lines(found, flt, level=level)
+    shoulder = np.full(len(found.objects), np.nan)
+    if _line_with_sides(flt) and (flt.min_shoulder is not None or flt.max_shoulder is not None):
+        shoulder = shoulders(lattice, geoms, np.array([m for _, m in found.objects]), measure=flt.measure)
+    broad = _broad(lattice, geoms, shoulder, flt)
+    kx, ky, kc = xg[found.keep], yg[found.keep], code[found.keep]
+    out = []
+    for (g, measure), geom, sh, wide in zip(found.objects, geoms, shoulder, broad):
+        if not _shoulder_passes(flt, sh, wide):
+            continue
+        shaped = _shape(geom, kx[g], ky[g], kc[g], flt, level=level)
+        if shaped is not None:
+            out.append(Match(flt.name, level, found.keep[g], shaped, _length(shaped, flt), measure, float(sh)))
+    return out
+
+
+def _line_with_sides(flt: Filter) -> bool:
+    """A linear form with a crest or a bottom (not a step): it has a centre line and shoulders."""
+    return flt.linear and flt.measure is not Measure.STEP
+
+
+def _objects(
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    code: NDArray[np.uint8],
+    lattice: NodeLattice,
+    flt: Filter,
+    *,
+    level: int,
+    evidence: tuple[NDArray[np.bool_], NDArray[np.bool_]] | None,
+) -> _Candidates:
+    """The tiles that stand out by the filter's measure, grouped into objects that are measured
+    and, for a line, elongated enough."""
+    own, facing = evidence if evidence is not None else candidates(xg, yg, code, flt, level)
     cand = np.flatnonzero(own | facing)
     if len(cand) == 0:
-        return []
+        empty = np.zeros(0)
+        return _Candidates(cand, empty, empty, [])
     # A pair of facing planes is weaker evidence than a valley in a tile: it must stand out by
     # the filter's whole measure, not a share of it, or gentle hollows chain distinct forms
     share = np.where(own[cand], TILE_SHARE, 1.0)
@@ -115,7 +167,7 @@ def match_tiles(
         xg[cand],
         yg[cand],
         measure=flt.measure,
-        reach=REACH_TILES * lv,
+        reach=REACH_TILES * level,
         along=BREAK_LINES[code[cand]],
         around=flt.around,
     )
@@ -123,8 +175,7 @@ def match_tiles(
         # NaN (terrain beside unknown) is kept, but a closed form must be seen all round
         ok = relief >= share * flt.min_measure if flt.around else ~(relief < share * flt.min_measure)
     keep, relief, ex, ey = cand[ok], relief[ok], ex[ok], ey[ok]
-    xg, yg, code = xg[keep], yg[keep], code[keep]
-    groups = components(xg, yg, code, flt, lv, accept=np.ones(len(keep), bool))
+    groups = components(xg[keep], yg[keep], code[keep], flt, level, accept=np.ones(len(keep), bool))
     found: list[tuple[NDArray[np.intp], float]] = []
     for g in groups:
         if not np.isfinite(relief[g]).any():
@@ -133,44 +184,51 @@ def match_tiles(
             measure = float(np.nanmax(relief[g]) if flt.around else np.nanmedian(relief[g]))
         if measure < flt.min_measure:  # NaN (no relief measured) is kept
             continue
-        if flt.linear and elongation(ex[g], ey[g], level=lv) < flt.min_elongation:
+        if flt.linear and elongation(ex[g], ey[g], level=level) < flt.min_elongation:
             continue
         found.append((g, measure))
-    if not shapes:
-        return [Match(flt.name, lv, keep[g], shapely.GeometryCollection(), float("nan"), m) for g, m in found]
-    if flt.linear and flt.measure is not Measure.STEP:
-        owner = np.repeat(np.arange(len(found)), [len(g) for g, _ in found])
-        tiles = np.concatenate([g for g, _ in found]) if found else np.zeros(0, np.intp)
-        link = (LINK_TILES + flt.gap) * lv
-        geoms = centrelines(ex[tiles], ey[tiles], owner, link=link, count=len(found))
-    else:  # a step has no extreme line; polygons come from the tiles
-        geoms = [shapely.LineString()] * len(found)
-    shoulder = np.full(len(found), np.nan)
-    if (
-        flt.linear
-        and flt.measure is not Measure.STEP
-        and (flt.min_shoulder is not None or flt.max_shoulder is not None)
-    ):
-        shoulder = shoulders(lattice, geoms, np.array([m for _, m in found]), measure=flt.measure)
-    broad = _broad(lattice, geoms, shoulder, flt)
-    out = []
-    for (g, measure), geom, sh, wide in zip(found, geoms, shoulder, broad):
-        # an unmeasured shoulder passes a least one and fails a largest one: a form is a ridge
-        # (or a ditch) unless it is shown to be narrow
-        if flt.min_shoulder is not None and sh < flt.min_shoulder and not wide:
-            continue
-        if flt.max_shoulder is not None and (not sh <= flt.max_shoulder or wide):
-            continue
-        if flt.linear:
-            if geom.is_empty:  # no extreme line: follow the break lines
-                lines = [line for line in tile_lines(xg[g], yg[g], code[g], lv) if line is not None]
-                geom = shapely.line_merge(shapely.union_all(lines))
-            if geom.is_empty:  # planes falling to one corner: a hollow, no line
-                continue
-            length = float(geom.length)
-        else:
-            # tiles never overlap: a coverage union is exact and much faster than a general one
-            geom = shapely.coverage_union_all(shapely.box(xg[g], yg[g], xg[g] + lv, yg[g] + lv))
-            length = 0.0
-        out.append(Match(flt.name, lv, keep[g], geom, length, measure, float(sh)))
-    return out
+    return _Candidates(keep, ex, ey, found)
+
+
+def _centre_lines(found: _Candidates, flt: Filter, *, level: int) -> list[shapely.Geometry]:
+    """Each object's line through its tiles' extreme nodes; empty for steps (their polygons or
+    break lines come from the tiles)."""
+    if not _line_with_sides(flt):
+        return [shapely.LineString()] * len(found.objects)
+    owner = np.repeat(np.arange(len(found.objects)), [len(g) for g, _ in found.objects])
+    tiles = np.concatenate([g for g, _ in found.objects]) if found.objects else np.zeros(0, np.intp)
+    link = (LINK_TILES + flt.gap) * level
+    return centrelines(found.ex[tiles], found.ey[tiles], owner, link=link, count=len(found.objects))
+
+
+def _shoulder_passes(flt: Filter, shoulder: float, wide: bool) -> bool:
+    """An unmeasured shoulder passes a least one and fails a largest one: a form is a ridge (or a
+    ditch) unless it is shown to be narrow."""
+    if flt.min_shoulder is not None and shoulder < flt.min_shoulder and not wide:
+        return False
+    return not (flt.max_shoulder is not None and (not shoulder <= flt.max_shoulder or wide))
+
+
+def _shape(
+    line: shapely.Geometry,
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    code: NDArray[np.uint8],
+    flt: Filter,
+    *,
+    level: int,
+) -> shapely.Geometry | None:
+    """A match's geometry: its centre line, or its tiles' break lines where it has none, or the
+    union of its tiles for a polygon filter; None for a line with neither (planes falling to
+    one corner: a hollow)."""
+    if not flt.linear:
+        # tiles never overlap: a coverage union is exact and much faster than a general one
+        return shapely.coverage_union_all(shapely.box(xg, yg, xg + level, yg + level))
+    if line.is_empty:
+        lines = [piece for piece in tile_lines(xg, yg, code, level) if piece is not None]
+        line = shapely.line_merge(shapely.union_all(lines))
+    return None if line.is_empty else line
+
+
+def _length(geom: shapely.Geometry, flt: Filter) -> float:
+    return float(geom.length) if flt.linear else 0.0

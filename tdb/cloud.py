@@ -82,7 +82,7 @@ class PointCloud:
         )
 
 
-def from_arrays(
+def from_arrays(  # noqa: PLR0913 (one argument per field of a PointCloud)
     x: NDArray[Any],
     y: NDArray[Any],
     z: NDArray[Any],

@@ -13,7 +13,7 @@ import json
 import os
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import chain
 from pathlib import Path
 from typing import Any
@@ -47,6 +47,18 @@ class Version:
     params: dict[str, Any]
     stats: VersionStats
     created: str
+
+
+@dataclass(frozen=True)
+class VersionInfo:
+    """What is recorded of a survey beside its model: when it was flown, where it came from, its
+    CRS (WKT), the settings it was modelled with and what ingest measured of it."""
+
+    acquired: dt.date | None = None
+    source: str | None = None
+    crs: str | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+    stats: VersionStats | None = None
 
 
 def is_database(path: str | os.PathLike[str]) -> bool:
@@ -256,16 +268,13 @@ class Database:
         *,
         levels: dict[int, tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]],
         points: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]],
-        acquired: dt.date | None = None,
-        source: str | None = None,
-        crs: str | None = None,
-        params: dict[str, Any] | None = None,
-        stats: VersionStats | None = None,
+        info: VersionInfo | None = None,
         replace: bool = False,
         progress: Progress | None = None,
     ) -> Version:
         """Store one survey: tiles per level (xg, yg, code) and points (x, y, z, n), in one transaction.
 
+        ``info``: what is recorded of the survey beside its model (:class:`VersionInfo`);
         ``progress`` is told ``("database", rows written, rows)`` (:mod:`tdb.progress`).
 
         Raises
@@ -273,6 +282,7 @@ class Database:
         VersionExistsError
             If ``name`` exists and ``replace`` is false.
         """
+        meta = info or VersionInfo()
         with self.transaction() as conn:
             old = conn.execute(select(schema.versions.c.id).where(schema.versions.c.name == name)).scalar()
             if old is not None:
@@ -282,11 +292,11 @@ class Database:
             vid = conn.execute(
                 schema.versions.insert().values(
                     name=name,
-                    acquired=acquired,
-                    source=source,
-                    crs=crs,
-                    params=json.dumps(params or {}),
-                    stats=json.dumps(stats.to_json() if stats else {}, default=float),
+                    acquired=meta.acquired,
+                    source=meta.source,
+                    crs=meta.crs,
+                    params=json.dumps(meta.params),
+                    stats=json.dumps(meta.stats.to_json() if meta.stats else {}, default=float),
                     created=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
                 )
             ).inserted_primary_key

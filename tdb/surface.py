@@ -97,7 +97,7 @@ class KeptMesh:
     size: float
 
 
-def kept_mesh(
+def kept_mesh(  # noqa: PLR0913 (the points' three arrays and the tiles' three)
     x: NDArray[np.float64],
     y: NDArray[np.float64],
     z: NDArray[np.float64],

@@ -16,6 +16,7 @@ import pytest
 import tdb
 from ingest.pipeline import ingest
 from ingest.synth import make_scene, sample
+from tdb.database import VersionInfo
 from tdb.errors import DatabaseError, TdbIOError, VersionExistsError, VersionNotFoundError
 from tdb.schema import ddl
 
@@ -49,7 +50,7 @@ def _points(seed=0, n=1000):
 def test_round_trip(tmp_path):
     db = tdb.open(tmp_path / "a.tdb", create=True)
     levels, points = _levels(), _points()
-    db.write_version("2020", levels=levels, points=points, crs="EPSG:25832")
+    db.write_version("2020", levels=levels, points=points, info=VersionInfo(crs="EPSG:25832"))
     for level, (xg, yg, code) in levels.items():
         rx, ry, rc = db.tiles("2020", level=level)
         order = np.lexsort((yg, xg))

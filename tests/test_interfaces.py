@@ -7,7 +7,7 @@ import pytest
 from click.testing import CliRunner
 
 import tdb
-from ingest.pipeline import ingest
+from ingest.pipeline import IngestOptions, ingest
 from tdb.cli import main
 from tdb.cloud import from_arrays
 from tdb.errors import CRSError, Remedy, VersionExistsError
@@ -47,7 +47,7 @@ def test_ingest_takes_crs_for_a_point_cloud(plane, tmp_path):
         with pytest.raises(CRSError) as info:
             ingest(cloud, db, version="none")
         assert info.value.remedy is Remedy.GIVE_CRS
-        ingest(cloud, db, version="utm", crs="EPSG:32632")
+        ingest(cloud, db, version="utm", options=IngestOptions(crs="EPSG:32632"))
         assert db.crs("utm").to_epsg() == 32632
 
 

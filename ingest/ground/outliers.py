@@ -11,6 +11,7 @@ are queried: a few percent of the points on ordinary data.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import reduce
 
 import numpy as np
@@ -201,26 +202,36 @@ REACH = (2.0, 6.0, 14.0)  # m: how far the ground a suspect lies under is looked
 BLOCK = 2.0  # m: the raster that picks the suspects
 
 
+@dataclass(frozen=True)
+class SunkenShape:
+    """A sunken group: at most ``max_points`` ground points, more than ``depth`` m below all the
+    terrain beside them; points join where their height step is at most ``step`` m + ``slope`` ×
+    their distance (counted up to ``span`` m)."""
+
+    depth: float = 10.0
+    step: float = 1.0
+    slope: float = 2.0
+    span: float = 3.0
+    max_points: int = 500
+
+
 def sunken_groups(
     xyz: NDArray[np.float64],
     ground: NDArray[np.bool_],
     *,
-    depth: float = 10.0,
-    step: float = 1.0,
-    slope: float = 2.0,
-    span: float = 3.0,
-    max_points: int = 500,
+    shape: SunkenShape = SunkenShape(),
     cells: CellSort | None = None,
 ) -> NDArray[np.bool_]:
-    """Mask of ground points in small groups sunk more than ``depth`` m below all the ground around.
+    """Mask of ground points in small groups sunk more than ``shape.depth`` m below all the ground
+    around (:class:`SunkenShape`).
 
     Multipath returns under water or glass can scatter tens of metres below a void in the
     ground, spread wider than :func:`deep_pits` opens and too uneven for
     :func:`ground_spikes`. Ground points are joined to their Delaunay neighbours where the
-    height step is at most ``step`` + ``slope`` × the distance (counted up to ``span`` m);
-    joined sets of more than ``max_points`` (and the largest one) are terrain. The other points, taken together
-    where they touch, are one group; a group of at most ``max_points`` whose every terrain
-    neighbour lies more than ``depth`` above it is no terrain.
+    height step is small (the shape's step and slope); joined sets of more than ``max_points``
+    (and the largest one) are terrain. The other points, taken together where they touch, are
+    one group; a group of at most ``max_points`` whose every terrain neighbour lies more than
+    ``depth`` above it is no terrain.
 
     Only the ground near a 2 m block whose lowest ground lies more than ``depth`` below the
     lowest ground of a block up to 14 m away (beyond the rise of a 45° slope) is looked at: on
@@ -230,6 +241,7 @@ def sunken_groups(
     out = np.zeros(len(xyz), bool)
     if np.count_nonzero(ground) < 4:
         return out
+    depth = shape.depth
     cells = cells or CellSort.of(Grid.covering(xyz[:, :2], 1.0), xyz)
     low = heights_of(cells.lowest(ground), xyz)
     # blocks of about BLOCK m: the lowest and the highest of their cells' lowest ground
@@ -258,23 +270,15 @@ def sunken_groups(
     # where the area is cut from the rest of the ground, a group's terrain may lie outside it
     rim = near & ~ndimage.binary_erosion(near, structure=np.ones((3, 3)), border_value=1)
     cut = rim[row[inside], col[inside]]
-    sunk = _sunken(xyz[local], cut, depth=depth, step=step, slope=slope, span=span, max_points=max_points)
+    sunk = _sunken(xyz[local], cut, shape)
     out[local[sunk]] = True
     return out
 
 
-def _sunken(
-    xyz: NDArray[np.float64],
-    cut: NDArray[np.bool_],
-    *,
-    depth: float,
-    step: float,
-    slope: float,
-    span: float,
-    max_points: int,
-) -> NDArray[np.bool_]:
+def _sunken(xyz: NDArray[np.float64], cut: NDArray[np.bool_], shape: SunkenShape) -> NDArray[np.bool_]:
     """:func:`sunken_groups` on the ground points ``xyz`` of one area; a group holding a point
     ``cut`` marks (on the area's rim) is kept."""
+    depth, step, slope, span, max_points = shape.depth, shape.step, shape.slope, shape.span, shape.max_points
     n = len(xyz)
     try:
         tri = Delaunay(xyz[:, :2])

@@ -210,7 +210,7 @@ def _facet_normals(base: NDArray[np.float64], apex: NDArray[np.float64]) -> NDAr
     return unit_normals(flat[:, 0], flat[:, 1], flat[:, 2]).reshape(m, 3, 3)
 
 
-def _description_lengths(
+def _description_lengths(  # noqa: PLR0913 (a numeric kernel over the upward step's arrays)
     xyz: NDArray[np.float64],
     free: NDArray[np.intp],
     cand: NDArray[np.intp],

@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from tdb.cli.options import exclude_option, input_options
-from tdb.options import GroundMethod
+from tdb.options import GroundMethod, LabelScheme
 
 
 def _date(_ctx: click.Context, _param: click.Parameter, value: str | None) -> dt.date | None:
@@ -62,7 +62,7 @@ def command(
       tdb ingest lidarhd.laz --db ign.tdb --version 2023 --exclude-classes 7,18,65
     """
     import tdb
-    from ingest.pipeline import ingest
+    from ingest.pipeline import IngestOptions, ingest
     from tdb.cli.progress import Bars
 
     with tdb.open(db_path, create=True) as db, Bars(unit="step") as bars:
@@ -71,14 +71,16 @@ def command(
             db,
             version=version,
             acquired=date,
-            method=method,
-            resolution=resolution,
-            flat_threshold=flat_threshold,
             replace=replace,
-            crs=crs,
-            labels=labels,
-            assume_metres=assume_metres,
-            exclude=exclude,
+            options=IngestOptions(
+                crs=crs,
+                labels=LabelScheme(labels),
+                assume_metres=assume_metres,
+                method=GroundMethod(method),
+                resolution=resolution,
+                flat_threshold=flat_threshold,
+                exclude=exclude,
+            ),
             progress=bars,
         )
     r = v.stats.reduction
