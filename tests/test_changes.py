@@ -22,6 +22,7 @@ from tdb.cli import main
 from tdb.cloud import from_arrays
 
 
+@pytest.mark.slow
 def test_dug_and_filled_ditches_are_found_and_typed(tmp_path):
     scene = make_scene(seed=7, size=150)
     later, changes = apply_changes(scene, seed=7)
@@ -76,6 +77,7 @@ def test_dug_and_filled_ditches_are_found_and_typed(tmp_path):
             assert abs(np.nanpercentile(inside, 50)) > level_of_detection(db, "a", "b"), change.kind
 
 
+@pytest.mark.slow
 def test_a_resurvey_of_unchanged_ground_reports_nothing(tmp_path):
     # Same terrain, new returns: categories flip on ditch rims and ridge flanks, but hardly
     # any region moves coherently beyond the level of detection. (What remains is a tall
@@ -120,6 +122,7 @@ def _new_mound(tmp_path, height, width):
     ]
 
 
+@pytest.mark.slow
 def test_a_small_but_strong_change_is_reported(tmp_path):
     # A mound 1.2 m high and 5.5 m across changes about six 2 m tiles: fewer than the eight a
     # region needs in general, but its mean change is over three times the level of detection.
@@ -128,6 +131,7 @@ def test_a_small_but_strong_change_is_reported(tmp_path):
     assert hits[0]["kind"] == "mound appeared" and hits[0]["dz"] >= 3 * hits[0]["lod"]
 
 
+@pytest.mark.slow
 def test_a_small_weak_change_counts_where_a_closed_form_appears(tmp_path, monkeypatch):
     # 0.7 m high and 4 m across: a few tiles whose mean change is under three LoDs, which the
     # size gate alone drops; the mound filter sees the form in the later survey only.
@@ -220,6 +224,7 @@ def test_member_is_isin(keys, probe, vast):
     np.testing.assert_array_equal(got, want)
 
 
+@pytest.mark.slow
 def test_dem_of_difference_shows_the_new_mound_and_nothing_else(tmp_path):
     from queries.dod import difference_of_surfaces
     from tdb.errors import InputError

@@ -80,40 +80,60 @@ def test_ground_command(runner, tmp_path):
     assert dtm.exists()
 
 
-def test_ingest_info_aoi_categories(runner, tmp_path):
-    from ingest.readers import read
-
-    src = tmp_path / "s.laz"
+@pytest.fixture(scope="module")
+def ingested(tmp_path_factory):
+    """A 100 m synthetic scene ingested by the command line as version v1: (source, database)."""
+    tmp = tmp_path_factory.mktemp("cli")
+    runner = CliRunner()
+    src = tmp / "s.laz"
     assert runner.invoke(main, ["synth", "--size", "100", "--density", "1", "--out", str(src)]).exit_code == 0
-    db = tmp_path / "a.tdb"
+    db = tmp / "a.tdb"
     r = runner.invoke(main, ["ingest", str(src), "--db", str(db), "--version", "v1", "--date", "2021-05-01"])
     assert r.exit_code == 0, r.output
+    return src, db
+
+
+def test_ingest_refuses_an_existing_version_and_bad_classes(runner, ingested):
+    src, db = ingested
     again = runner.invoke(main, ["ingest", str(src), "--db", str(db), "--version", "v1"])
     assert again.exit_code == 1 and "exists" in again.stderr
-    info = runner.invoke(main, ["info", str(db), "--json"])
+    r = runner.invoke(main, ["ingest", str(src), "--db", str(db), "--version", "v2", "--exclude-classes", "x"])
+    assert r.exit_code != 0 and "class codes" in r.output
+
+
+def test_info_reports_what_ingest_stored(runner, ingested):
     import json
 
-    doc = json.loads(info.output)
+    from ingest.readers import read
+
+    src, db = ingested
+    doc = json.loads(runner.invoke(main, ["info", str(db), "--json"]).output)
     assert doc["versions"][0]["name"] == "v1" and doc["versions"][0]["acquired"] == "2021-05-01"
     assert doc["versions"][0]["params"]["exclude_classes"] == [7, 18]
     noise = int((read(src).classification == 7).sum())
     assert noise > 0 and doc["versions"][0]["stats"]["excluded_points"] == noise
-    r = runner.invoke(main, ["ingest", str(src), "--db", str(db), "--version", "v2", "--exclude-classes", "x"])
-    assert r.exit_code != 0 and "class codes" in r.output
+    text = runner.invoke(main, ["info", str(db)])
+    assert text.exit_code == 0 and "tiles 2/4/8/16 m: 2500/625/" in text.output
+
+
+def test_aoi_writes_mesh_surface_and_picture(runner, ingested, tmp_path):
+    _, db = ingested
     out = tmp_path / "area"
     r = runner.invoke(main, ["aoi", "--db", str(db), "--bbox", "500010,5500010,500060,5500060", "--out", str(out)])
     assert r.exit_code == 0, r.output
     for suffix in (".ply", ".tif", ".png"):
         assert out.with_suffix(suffix).stat().st_size > 100
     assert out.with_suffix(".ply").read_text().startswith("ply")
+
+
+def test_categories_are_listed_and_drawn(runner, tmp_path):
     r = runner.invoke(main, ["categories"])
     assert r.exit_code == 0 and len(r.output.strip().splitlines()) == 115
     r = runner.invoke(main, ["categories", "--atlas", str(tmp_path / "atlas.png")])
     assert r.exit_code == 0 and (tmp_path / "atlas.png").read_bytes()[:4] == b"\x89PNG"
-    _query_formats(runner, db, tmp_path)
 
 
-def _query_formats(runner, db, tmp_path):
+def test_query_results_as_geojson_and_geopackage_agree(runner, ingested, tmp_path):
     """The same tiles as GeoJSON on stdout and as a GeoPackage that GDAL reads, in the survey's CRS."""
     import json
 
@@ -121,6 +141,7 @@ def _query_formats(runner, db, tmp_path):
     import pyogrio.raw
     from pyproj import CRS
 
+    _, db = ingested
     text = "SELECT tiles FROM v1 WHERE bbox(500010, 5500010, 500030, 5500030)"
     r = runner.invoke(main, ["query", text, "--db", str(db)])
     assert r.exit_code == 0, r.output
@@ -141,7 +162,11 @@ def _query_formats(runner, db, tmp_path):
     assert {name for name, _ in pyogrio.list_layers(gpkg)} == {"tiles", "ditches"}
     r = runner.invoke(main, ["query", text, "--db", str(db), "--layer", "x"])
     assert r.exit_code != 0 and "belong to --format gpkg" in r.output
-    # The same results drawn over the hillshade of the box.
+
+
+def test_query_draws_its_results(runner, ingested, tmp_path):
+    _, db = ingested
+    text = "SELECT tiles FROM v1 WHERE bbox(500010, 5500010, 500030, 5500030)"
     png = tmp_path / "tiles.png"
     r = runner.invoke(main, ["query", text, "--db", str(db), "--png", str(png), "--out", str(tmp_path / "t.json")])
     assert r.exit_code == 0, r.output

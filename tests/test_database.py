@@ -166,6 +166,7 @@ KILLER = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 def test_kill_during_write_leaves_database_as_it_was(tmp_path):
     path = tmp_path / "k.tdb"
     db = tdb.open(path, create=True)

@@ -48,6 +48,7 @@ def test_blocks_short_strips_wide_strips_and_walls_are_objects():
     assert elongated_objects(grid, np.where(grid, 1.0, 0.0), cell=1.0)[20, 20:58].all()
 
 
+@pytest.mark.slow
 def test_the_default_filter_keeps_a_steep_ridge_it_used_to_cut():
     # A flat-topped ridge 1.5 m high and 5 m wide (the U profile) with sides as steep as 66°:
     # the opening windows take its top for an object; as an earthwork it stays ground.
@@ -62,6 +63,7 @@ def test_the_default_filter_keeps_a_steep_ridge_it_used_to_cut():
     assert auto_ground(cloud.xyz)[top].mean() > 0.9
 
 
+@pytest.mark.slow
 def test_the_default_filter_keeps_the_whole_top_of_a_steep_ridge_in_both_surveys():
     # Seed 23's U ridge, 1.43 m high and 5.4 m wide: the passes crept up it here and there and
     # left its top cut in pieces of 7-11 m, too short for an earthwork, and not the same pieces
@@ -155,6 +157,7 @@ def test_short_wide_and_high_bands_are_no_walls():
         (2, 1.55),  # 1.31 m wide: before the wall step 10 % of its top points were kept
     ],
 )
+@pytest.mark.slow
 def test_the_default_filter_keeps_a_wall_it_used_to_cut(seed, height):
     cloud, top = _wall_top(seed, height)
     assert auto_ground(cloud.xyz)[top].mean() > 0.8
@@ -220,6 +223,7 @@ def test_returns_of_single_return_pulses_change_nothing():
         auto_ground(xyz, returns=(number[:-1], count))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("seed", "height"), [(1, 1.04)])  # crowns beside it made it a building's band
 def test_the_default_filter_keeps_a_wall_beside_crowns_given_the_returns(seed, height):
     cloud, top = _wall_top(seed, height)

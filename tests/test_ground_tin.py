@@ -49,6 +49,7 @@ def tin_locate(tin, xy):
     return b.argmax(axis=1)
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 10_000), rounds=st.integers(1, 10))
 def test_inserting_gives_the_delaunay_triangulation_of_all_points(seed, rounds):

@@ -99,6 +99,7 @@ def _without_the_test(monkeypatch, xyz):
         return auto.auto_ground(xyz)
 
 
+@pytest.mark.slow
 def test_real_hillside_beside_a_gap_is_kept(monkeypatch):
     # FSite5 (ISPRS): a slope above a gap in the data, the flat beyond it. Cut out of the rest
     # of the ground, the slope's foot once looked sunk under the hillside above it.

@@ -84,6 +84,7 @@ def test_ditch_is_as_deep_as_its_truth_says():
             assert (z[1] + z[2]) / 2 - z[0] == pytest.approx(f.size, abs=0.15 + 0.05 * f.width)
 
 
+@pytest.mark.slow
 def test_features_scale_with_area():
     small, big = make_scene(seed=1, size=150), make_scene(seed=1, size=1000)
     assert sum(f.kind == "ditch" for f in big.features) > 5 * sum(f.kind == "ditch" for f in small.features) / 2
