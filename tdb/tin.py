@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
-from functools import cache
 from typing import Protocol
 
 import numpy as np
@@ -13,6 +10,7 @@ from numpy.typing import NDArray
 from scipy.spatial import Delaunay, QhullError
 
 from tdb.errors import DegenerateInputError
+from tdb.threads import one_blas_thread
 
 
 @dataclass(frozen=True)
@@ -79,21 +77,6 @@ def transforms(xy: NDArray[np.float64], simplices: NDArray[np.intp]) -> NDArray[
     out[:, 1, 0], out[:, 1, 1] = -b * inv, a * inv
     out[:, 2, :] = r
     return out
-
-
-@cache
-def _controller() -> object:
-    from threadpoolctl import ThreadpoolController
-
-    return ThreadpoolController()
-
-
-@contextmanager
-def one_blas_thread() -> Iterator[None]:
-    """BLAS held to one thread within: Qhull's point location works out scipy's own transforms
-    with one tiny LAPACK call per triangle, and BLAS threads only contend on those."""
-    with _controller().limit(limits=1, user_api="blas"):  # type: ignore[attr-defined]
-        yield
 
 
 def morton_order(xy: NDArray[np.float64]) -> NDArray[np.intp]:
