@@ -22,11 +22,15 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from queries.centreline import elongation
+from queries.coregister import Shift, shifted_lattice
 from queries.filters import builtin_filters
+from queries.grids import shared_tiles
 from queries.match import REACH_TILES, match_tiles
 from queries.relief import nan_extreme
 from tdb.categories import NO_DATA
+from tdb.crs import check_same_horizontal
 from tdb.database import Database
+from tdb.geojson import feature
 from tdb.surface import line_rebuild_at
 from tdb.tiles import SUBGRID, NodeLattice, node_lattice, tile_key
 
@@ -218,16 +222,6 @@ def _grow(
     return out, np.concatenate(parts)[row[out]]
 
 
-def shared_tiles(
-    db: Database, before: str, after: str, *, level: int, bbox: tuple[float, float, float, float] | None
-) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8], NDArray[np.uint8]]:
-    """(xg, yg) of the tiles both versions hold at ``level`` in ``bbox``, and each one's code in either."""
-    xa, ya, ca = db.tiles(before, level=level, bbox=bbox, ordered=False)
-    xb, yb, cb = db.tiles(after, level=level, bbox=bbox, ordered=False)
-    _, ia, ib = np.intersect1d(tile_key(xa, ya), tile_key(xb, yb), return_indices=True)
-    return xa[ia], ya[ia], ca[ia], cb[ib]
-
-
 def detect(
     db: Database,
     before: str,
@@ -236,8 +230,19 @@ def detect(
     level: int = 2,
     bbox: tuple[float, float, float, float] | None = None,
     min_tiles: int = 8,
+    shift: Shift | None = None,
 ) -> list[dict[str, Any]]:
-    """Changed regions between ``before`` and ``after`` as GeoJSON feature dicts."""
+    """Changed regions between ``before`` and ``after`` as GeoJSON feature dicts.
+
+    ``shift`` (:func:`queries.coregister.coregister`) aligns ``after`` to ``before`` first, and
+    the level of detection is then at least what the residual on stable ground allows.
+
+    Raises
+    ------
+    CRSError
+        If the versions' horizontal coordinate systems differ.
+    """
+    check_same_horizontal(db.crs(before), db.crs(after), names=(before, after))
     xg, yg, c1, c2 = shared_tiles(db, before, after, level=level, bbox=bbox)
     if len(xg) == 0:
         return []
@@ -248,6 +253,10 @@ def detect(
         return []
     lod = level_of_detection(db, before, after)
     lattices = {name: _lattice(db, name, level, xg[differ], yg[differ]) for name in (before, after)}
+    if shift is not None and shift.applied:
+        lattices[after] = shifted_lattice(lattices[after], shift)
+    if shift is not None and np.isfinite(shift.nmad):
+        lod = max(lod, 1.96 * shift.nmad)
     tiles = _Tiles(xg, yg, lattices[before], lattices[after], lod)
     tested, dz, moved = tiles.moved(differ)
     if not moved.any():
@@ -278,20 +287,15 @@ def detect(
         x, y = xg[members], yg[members]
         geom = shapely.coverage_union_all(shapely.box(x, y, x + level, y + level))  # tiles never overlap
         compact = elongation(x.astype(float), y.astype(float), level=level) < LINE_ELONGATION
-        out.append(
-            {
-                "type": "Feature",
-                "geometry": shapely.geometry.mapping(geom),
-                "properties": {
-                    "kind": _kind(was, now, mean_dz, compact=compact),
-                    "tiles": len(members),
-                    "area": float(geom.area),
-                    "dz": round(mean_dz, 3),
-                    "level": level,
-                    "lod": round(lod, 3),
-                },
-            }
-        )
+        props = {
+            "kind": _kind(was, now, mean_dz, compact=compact),
+            "tiles": len(members),
+            "area": float(geom.area),
+            "dz": round(mean_dz, 3),
+            "level": level,
+            "lod": round(lod, 3),
+        }
+        out.append(feature(geom, props))
     return out
 
 

@@ -10,22 +10,15 @@ lacks, or holds as no data, stay no data rather than an interpolation across the
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
-from queries.changes import shared_tiles
-from tdb.categories import NO_DATA
+from queries.coregister import Shift
+from queries.grids import Box, surface_grids
 from tdb.database import Database
-from tdb.errors import InputError
 from tdb.raster import MAX_CELLS, Raster
-from tdb.surface import line_rebuild_at
-from tdb.tiles import SUBGRID, node_lattice, node_spacing
-
-Box = tuple[float, float, float, float]
 
 
-def difference_of_surfaces(
+def difference_of_surfaces(  # noqa: PLR0913 (the two versions, where, and how fine)
     db: Database,
     before: str,
     after: str,
@@ -34,54 +27,22 @@ def difference_of_surfaces(
     bbox: Box | None = None,
     max_cells: int = MAX_CELLS // 10,
     fit: bool = False,
+    shift: Shift | None = None,
 ) -> Raster:
     """``after − before`` (m) at the sub-grid nodes (spacing level / 4, one cell centred on each)
     of the tiles both versions hold inside ``bbox`` (default: all of them), in ``after``'s CRS.
-    With ``fit`` a grid over ``max_cells`` keeps every k-th node instead of raising.
+    With ``fit`` a grid over ``max_cells`` keeps every k-th node instead of raising. With a
+    ``shift`` (:mod:`queries.coregister`), ``after`` is co-registered onto ``before`` first.
 
     Raises
     ------
     InputError
         If the versions share no tiles there, or the grid would exceed ``max_cells``.
     """
-    xg, yg, ca, cb = shared_tiles(db, before, after, level=level, bbox=bbox)
-    held = (ca != NO_DATA) & (cb != NO_DATA)
-    xg, yg = xg[held], yg[held]
-    if len(xg) == 0:
-        raise InputError(f"versions {before!r} and {after!r} share no tiles at level {level} there")
-    s = node_spacing(level)
-    x0, y0, x1, y1 = bbox or (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
-    i0, j0 = int(np.ceil(x0 / s - 1e-9)), int(np.ceil(y0 / s - 1e-9))
-    i1, j1 = int(np.floor(x1 / s + 1e-9)), int(np.floor(y1 / s + 1e-9))
-    step = 1
-    cells = (i1 - i0 + 1) * (j1 - j0 + 1)
-    if cells > max_cells and fit:
-        step = int(np.ceil(np.sqrt(cells / max_cells)))
-        cells = ((i1 - i0) // step + 1) * ((j1 - j0) // step + 1)
-    if cells > max_cells:
-        raise InputError(
-            f"a {s} m difference grid over this area needs {cells:,} cells (most {max_cells:,}); "
-            "give a smaller bbox"
-        )
-    grown = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
-    dz = _surface(db, after, level, xg, yg, grown) - _surface(db, before, level, xg, yg, grown)
-    # Scatter the tiles' nodes onto the grid; neighbours share their edge nodes, with one value.
-    d = np.arange(SUBGRID)
-    ni = (np.rint(xg / s).astype(np.int64)[:, None, None] + d[None, None, :]).repeat(SUBGRID, axis=1)
-    nj = (np.rint(yg / s).astype(np.int64)[:, None, None] + d[None, :, None]).repeat(SUBGRID, axis=2)
-    rows, cols = (j1 - j0) // step + 1, (i1 - i0) // step + 1
-    ci, cj = ni - i0, nj - j0
-    ok = (ci >= 0) & (cj >= 0) & (ci % step == 0) & (cj % step == 0) & (ci // step < cols) & (cj // step < rows)
-    grid = np.full((rows, cols), np.nan)
-    grid[rows - 1 - cj[ok] // step, ci[ok] // step] = dz[ok]  # north first
-    cell = s * step
-    return Raster(grid, i0 * s - cell / 2, (j0 + (rows - 1) * step) * s + cell / 2, cell, db.crs(after))
-
-
-def _surface(db: Database, version: str, level: int, xg: Any, yg: Any, box: Box) -> np.ndarray:
-    x, y, z, _ = db.points(version, level=level, bbox=box, ordered=False)
-    nodes = node_lattice(x, y, z, level).tile_nodes(xg, yg)
-    return line_rebuild_at(nodes).reshape(nodes.shape)
+    first, second = surface_grids(db, before, after, level=level, bbox=bbox, max_cells=max_cells, fit=fit)
+    if shift is not None and shift.applied:
+        second = shift.apply(second)
+    return Raster(second.data - first.data, first.x0, first.y1, first.cell, db.crs(after))
 
 
 def describe(dod: Raster, *, lod: float) -> dict[str, float]:

@@ -15,6 +15,7 @@ from queries.profile import SIDE, Nodes, Stretch, stretches, weighted_median
 from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import QueryError
+from tdb.geojson import feature
 from tdb.options import Measure
 from tdb.progress import Progress, or_silent
 
@@ -81,7 +82,7 @@ def _select(db: Database, q: Query, text: str, progress: Progress | None = None)
         if np.isfinite(m.shoulder):
             props["shoulder"] = round(m.shoulder, 2)
         if _keep(props, q):
-            out.append({"type": "Feature", "geometry": shapely.geometry.mapping(m.geometry), "properties": props})
+            out.append(feature(m.geometry, props))
     return out
 
 
@@ -128,7 +129,7 @@ def _by_stretch(
                 props["shoulder"] = round(m.shoulder, 2)
             if _keep(props, q):
                 geom = shapely.line_merge(shapely.union_all([st.line for st in run_]))
-                out.append({"type": "Feature", "geometry": shapely.geometry.mapping(geom), "properties": props})
+                out.append(feature(geom, props))
     return out
 
 
@@ -145,13 +146,7 @@ def _tiles(db: Database, q: Query) -> list[dict[str, Any]]:
             "category": c,
             "description": cats[c].description if c < len(cats) else "no data",
         }
-        feats.append(
-            {
-                "type": "Feature",
-                "geometry": shapely.geometry.mapping(shapely.box(x, y, x + level, y + level)),
-                "properties": props,
-            }
-        )
+        feats.append(feature(shapely.box(x, y, x + level, y + level), props))
     return [f for f in feats if _keep(f["properties"], q)]
 
 
@@ -165,10 +160,3 @@ def _keep(props: dict[str, Any], q: Query) -> bool:
         if not OPS[cond.op](value, cond.value):
             return False
     return True
-
-
-def feature_collection(features: list[dict[str, Any]], crs: Any) -> dict[str, Any]:
-    doc: dict[str, Any] = {"type": "FeatureCollection", "features": features}
-    if crs is not None and crs.to_epsg():
-        doc["crs"] = {"type": "name", "properties": {"name": f"urn:ogc:def:crs:EPSG::{crs.to_epsg()}"}}
-    return doc

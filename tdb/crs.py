@@ -25,3 +25,45 @@ def epsg_of(crs: pyproj.CRS | None) -> int | None:
         return None
     code = crs.to_epsg(min_confidence=70)
     return int(code) if code is not None else None
+
+
+def horizontal_part(crs: pyproj.CRS | None) -> pyproj.CRS | None:
+    """The horizontal CRS of ``crs`` (its first part where it is compound)."""
+    if crs is None or not crs.is_compound:
+        return crs
+    return next((c for c in crs.sub_crs_list if not c.is_vertical), crs.sub_crs_list[0])
+
+
+def vertical_part(crs: pyproj.CRS | None) -> pyproj.CRS | None:
+    """The vertical CRS ``crs`` declares (the vertical part of a compound CRS), or None."""
+    if crs is None:
+        return None
+    if crs.is_vertical:
+        return crs
+    if crs.is_compound:
+        return next((c for c in crs.sub_crs_list if c.is_vertical), None)
+    return None
+
+
+def describe(crs: pyproj.CRS | None) -> str:
+    """``name (EPSG:code)``, or a note that none is declared."""
+    if crs is None:
+        return "none declared"
+    code = epsg_of(crs)
+    return f"{crs.name} (EPSG:{code})" if code else crs.name
+
+
+def check_same_horizontal(a: pyproj.CRS | None, b: pyproj.CRS | None, *, names: tuple[str, str]) -> None:
+    """Refuse to compare two surveys whose horizontal coordinate systems differ.
+
+    Raises
+    ------
+    CRSError
+        If both declare a horizontal CRS and they are not the same one.
+    """
+    ha, hb = horizontal_part(a), horizontal_part(b)
+    if ha is not None and hb is not None and not ha.equals(hb, ignore_axis_order=True):
+        raise CRSError(
+            f"versions {names[0]!r} and {names[1]!r} are in different horizontal coordinate systems "
+            f"({describe(ha)}; {describe(hb)}); ingest one of them again in the other's"
+        )

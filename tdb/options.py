@@ -61,6 +61,15 @@ class Measure(Option):
         return -1.0 if self is Measure.DEPTH else 1.0
 
 
+class Coregistration(Option):
+    """How a later survey is aligned to an earlier one before they are compared."""
+
+    AUTO = "auto"  # estimate both shifts, apply each only where significant
+    NONE = "none"
+    VERTICAL = "vertical"  # a robust vertical shift only
+    NUTH_KAAB = "nuth-kaab"  # horizontal (Nuth & Kääb 2011) and vertical, applied whatever their size
+
+
 E = TypeVar("E", bound=Option)
 
 

@@ -136,3 +136,17 @@ def test_filter_defaults_are_the_schemas():
 
     shipped = json.loads((Path(__file__).parents[1] / "schemas" / "filter.schema.json").read_text())
     assert shipped["properties"]["level"]["enum"] == props["level"]["enum"] == list(LEVELS)
+
+
+def test_feature_collections_name_their_crs_by_epsg_urn():
+    import shapely
+    from pyproj import CRS
+
+    from tdb.geojson import feature, feature_collection
+
+    f = feature(shapely.Point(1, 2), {"kind": "tree"})
+    assert f["geometry"] == {"type": "Point", "coordinates": (1.0, 2.0)}
+    doc = feature_collection([f], CRS.from_epsg(25832))
+    assert doc["crs"]["properties"]["name"] == "urn:ogc:def:crs:EPSG::25832"
+    assert feature_collection([f], "EPSG:2154")["crs"]["properties"]["name"].endswith("::2154")
+    assert "crs" not in feature_collection([f], None)

@@ -15,19 +15,7 @@ import shapely
 from ingest.synth.changes import Change
 from ingest.synth.scene import Scene
 from tdb.atomic import write_text
-
-
-def _collection(features: list[dict[str, Any]], crs: str) -> dict[str, Any]:
-    code = crs.split(":")[-1]
-    return {
-        "type": "FeatureCollection",
-        "crs": {"type": "name", "properties": {"name": f"urn:ogc:def:crs:EPSG::{code}"}},
-        "features": features,
-    }
-
-
-def _feature(geom: shapely.Geometry, props: dict[str, Any]) -> dict[str, Any]:
-    return {"type": "Feature", "geometry": shapely.geometry.mapping(geom), "properties": props}
+from tdb.geojson import feature, feature_collection
 
 
 def scene_truth(scene: Scene) -> dict[str, Any]:
@@ -44,21 +32,21 @@ def scene_truth(scene: Scene) -> dict[str, Any]:
         if f.kind == "embankment":
             props["length"] = round(f.geometry.length, 2)
             props.update({k: float(v) for k, v in (p.split("=") for p in f.profile.split(","))})
-        out.append(_feature(f.geometry, props))
+        out.append(feature(f.geometry, props))
     for b in scene.buildings:
-        out.append(_feature(b.footprint, {"kind": "building", "id": b.ident, "height": b.height, "roof": b.roof}))
+        out.append(feature(b.footprint, {"kind": "building", "id": b.ident, "height": b.height, "roof": b.roof}))
     for t in scene.trees:
         out.append(
-            _feature(shapely.Point(t.x, t.y), {"kind": "tree", "height": t.height, "crown_radius": t.crown_radius})
+            feature(shapely.Point(t.x, t.y), {"kind": "tree", "height": t.height, "crown_radius": t.crown_radius})
         )
-    return _collection(out, scene.crs)
+    return feature_collection(out, scene.crs)
 
 
 def changes_truth(changes: list[Change], crs: str) -> dict[str, Any]:
     """The changes as polygons with kind, signed height change and area."""
-    return _collection(
+    return feature_collection(
         [
-            _feature(
+            feature(
                 c.area, {"kind": c.kind, "dz": round(c.dz, 2), "area": round(c.area.area, 1), "terrain": c.terrain}
             )
             for c in changes

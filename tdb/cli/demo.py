@@ -75,7 +75,8 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
         surface = area_surface(area, crs=db.crs("2020"), mesh=mesh)
         from queries.changes import detect, level_of_detection
         from queries.dod import difference_of_surfaces
-        from queries.run import feature_collection, run
+        from queries.run import run
+        from tdb.geojson import feature_collection
         from tdb.geopackage import write_geopackage
         from tdb.pictures import change_map
 

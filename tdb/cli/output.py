@@ -75,7 +75,7 @@ def emit(
 
 def render(features: list[dict[str, Any]], fmt: OutputFormat, crs: Any) -> str:
     """Features as GeoJSON text, CSV of their properties, or an aligned table."""
-    from queries.run import feature_collection
+    from tdb.geojson import feature_collection
 
     if fmt is OutputFormat.GEOJSON:
         return json.dumps(feature_collection(features, crs))

@@ -1,0 +1,292 @@
+"""Co-registration of two versions on stable terrain, before they are compared.
+
+Surveys years apart seldom share a height reference (a new geoid, a re-levelled network, a
+strip offset), and their planimetry can be offset by decimetres. Compared as they are, every
+tile of the overlap moves by the offset and the whole site reads as changed. So the later
+surface is first aligned to the earlier one on the terrain that did not change:
+
+- **Stable terrain** is where the two surfaces agree up to their noise: cells whose difference
+  lies within 3 NMAD of the median difference, found again after every step (so that real
+  changes, vegetation read as ground and water drop out as outliers).
+- **Horizontal shift** by Nuth & Kääb (2011): on a slope of inclination α and aspect ψ, a shift
+  of length a towards b makes dh / tan α = a · cos(b − ψ) + c. Fitted by least squares on the
+  stable cells with slopes of 3–70°, the later surface resampled at the shift found, and
+  iterated until the step is under 1 cm.
+- **Vertical shift**: the median of the stable differences after the horizontal shift.
+
+Each estimate carries its uncertainty. Errors of LiDAR ground models are correlated over
+distances of about :data:`CORRELATION` m (strips, the ground filter's choices), so the
+stable cells count as one independent sample per CORRELATION² m², not one per cell.
+``auto`` applies a shift only where it exceeds :data:`SIGNIFICANCE` times its uncertainty.
+
+The shift (dx, dy, dz) is the later survey's offset: ``after(x + dx, y + dy) − dz`` is
+``before(x, y)`` on stable ground.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from queries.grids import Box, surface_grids
+from tdb.crs import check_same_horizontal
+from tdb.database import Database
+from tdb.options import Coregistration, parse
+from tdb.raster import Raster
+from tdb.surface import line_rebuild_at
+from tdb.tiles import SUBGRID, NodeLattice
+
+CORRELATION = 10.0  # m: distance over which ground-model errors are correlated
+SIGNIFICANCE = 3.0  # a shift applies in ``auto`` where it exceeds this many standard errors
+OUTLIER_NMADS = 3.0  # stable cells lie within this many NMADs of the median difference
+MIN_SLOPE, MAX_SLOPE = 3.0, 70.0  # degrees: slopes that carry a horizontal shift
+STEP = 0.01  # m: the horizontal iteration stops when its step is shorter
+MAX_ITERATIONS = 10
+MIN_STABLE = 50  # stable cells needed for any estimate
+GRID_CELLS = 4_000_000  # most cells of the grid the shift is estimated on (coarser over large areas)
+
+
+@dataclass(frozen=True)
+class Shift:
+    """The later survey's offset from the earlier one, and how well it is known.
+
+    ``sigma_xy`` and ``sigma_z`` are standard errors (m); ``nmad`` is the spread of the stable
+    differences after the shift; ``stable_share`` the share of compared cells found stable.
+    ``horizontal`` and ``vertical`` say which parts apply.
+    """
+
+    dx: float = 0.0
+    dy: float = 0.0
+    dz: float = 0.0
+    sigma_xy: float = float("nan")
+    sigma_z: float = float("nan")
+    nmad: float = float("nan")
+    stable_share: float = float("nan")
+    method: Coregistration = Coregistration.NONE
+    horizontal: bool = False
+    vertical: bool = False
+
+    @property
+    def applied(self) -> bool:
+        """Whether any part of the shift applies."""
+        return self.horizontal or self.vertical
+
+    def apply(self, later: Raster) -> Raster:
+        """``later`` aligned to the earlier survey: resampled at the horizontal shift, less the
+        vertical one (the parts that apply)."""
+        data = later.data
+        if self.horizontal:
+            data = resample(data, self.dx / later.cell, -self.dy / later.cell)
+        if self.vertical:
+            data = data - self.dz
+        return replace(later, data=data)
+
+    def to_json(self) -> dict[str, Any]:
+        """The shift as a GeoJSON collection's ``coregistration`` member."""
+
+        def r(v: float) -> float | None:
+            return None if not np.isfinite(v) else round(float(v), 4)
+
+        return {
+            "method": str(self.method),
+            "dx": r(self.dx),
+            "dy": r(self.dy),
+            "dz": r(self.dz),
+            "sigma_xy": r(self.sigma_xy),
+            "sigma_z": r(self.sigma_z),
+            "nmad": r(self.nmad),
+            "stable_share": r(self.stable_share),
+            "horizontal_applied": self.horizontal,
+            "vertical_applied": self.vertical,
+        }
+
+    def describe(self) -> str:
+        """One line for a person: the shift, its uncertainty, what applies and the residual."""
+        parts = []
+        parts.append(f"dx {self.dx:+.3f} m, dy {self.dy:+.3f} m (± {self.sigma_xy:.3f})")
+        parts.append(f"dz {self.dz:+.3f} m (± {self.sigma_z:.3f})")
+        applied = [name for name, on in (("horizontal", self.horizontal), ("vertical", self.vertical)) if on]
+        return (
+            f"{', '.join(parts)}; applied: {' and '.join(applied) or 'none'}; "
+            f"NMAD on stable ground {self.nmad:.3f} m ({100 * self.stable_share:.0f} % of cells stable)"
+        )
+
+
+def coregister(
+    db: Database,
+    before: str,
+    after: str,
+    *,
+    level: int = 2,
+    bbox: Box | None = None,
+    method: str | Coregistration = Coregistration.AUTO,
+) -> Shift:
+    """The shift that aligns version ``after`` to ``before`` (:func:`estimate_shift`), on their
+    rebuilt surfaces over the tiles both hold in ``bbox``.
+
+    Raises
+    ------
+    CRSError
+        If the versions' horizontal coordinate systems differ.
+    InputError
+        If they share no tiles there.
+    """
+    check_same_horizontal(db.crs(before), db.crs(after), names=(before, after))
+    m = parse(Coregistration, method)
+    if m is Coregistration.NONE:
+        return Shift(method=m)
+    first, second = surface_grids(db, before, after, level=level, bbox=bbox, max_cells=GRID_CELLS, fit=True)
+    return estimate_shift(first, second, method=m)
+
+
+def shifted_lattice(lattice: NodeLattice, shift: Shift) -> NodeLattice:
+    """The later survey's node lattice aligned to the earlier one: less the vertical shift and,
+    where the horizontal one applies, every tile rebuilt in full (the line rebuild) and read at
+    the shifted positions."""
+    if not shift.applied or lattice.z.size == 0:
+        return lattice
+    z = lattice.z
+    if shift.horizontal:
+        z = resample(_rebuilt(lattice), shift.dx / lattice.spacing, shift.dy / lattice.spacing)  # rows run north
+    if shift.vertical:
+        z = z - shift.dz
+    return replace(lattice, z=z)
+
+
+def _rebuilt(lattice: NodeLattice) -> NDArray[np.float64]:
+    """The lattice with every tile it covers rebuilt at all its nodes (NaN where a tile has too
+    little to rebuild)."""
+    step = SUBGRID - 1
+    rows, cols = lattice.z.shape
+    ti = np.arange(lattice.i0 // step, (lattice.i0 + cols - 1) // step + 1)
+    tj = np.arange(lattice.j0 // step, (lattice.j0 + rows - 1) // step + 1)
+    gi, gj = np.meshgrid(ti, tj)
+    size = lattice.spacing * step
+    xg, yg = np.rint(gi.ravel() * size).astype(np.int64), np.rint(gj.ravel() * size).astype(np.int64)
+    nodes = line_rebuild_at(lattice.tile_nodes(xg, yg)).reshape(-1, SUBGRID, SUBGRID)
+    out = np.full(lattice.z.shape, np.nan)
+    d = np.arange(SUBGRID)
+    ni = (gi.ravel() * step - lattice.i0)[:, None, None] + d[None, None, :]
+    nj = (gj.ravel() * step - lattice.j0)[:, None, None] + d[None, :, None]
+    ni, nj = np.broadcast_to(ni, nodes.shape), np.broadcast_to(nj, nodes.shape)
+    ok = (ni >= 0) & (nj >= 0) & (ni < cols) & (nj < rows) & np.isfinite(nodes)
+    out[nj[ok], ni[ok]] = nodes[ok]
+    return out
+
+
+def nmad(values: NDArray[np.float64]) -> float:
+    """Normalised median absolute deviation: the standard deviation of normal values, robustly."""
+    if len(values) == 0:
+        return float("nan")
+    return float(1.4826 * np.median(np.abs(values - np.median(values))))
+
+
+def resample(data: NDArray[np.float64], di: float, dj: float) -> NDArray[np.float64]:
+    """``data`` read at (column + di, row + dj) bilinearly; NaN where a neighbour is NaN or outside."""
+    rows, cols = data.shape
+    jj, ii = np.mgrid[0:rows, 0:cols].astype(np.float64)
+    valid = np.isfinite(data)
+    filled = np.where(valid, data, 0.0)
+    coords = np.array([jj + dj, ii + di])
+    values = ndimage.map_coordinates(filled, coords, order=1, mode="constant", cval=np.nan)
+    weight = ndimage.map_coordinates(valid.astype(np.float64), coords, order=1, mode="constant", cval=0.0)
+    return np.where(weight > 1 - 1e-6, values, np.nan)
+
+
+def stable_cells(dh: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Cells whose difference lies within :data:`OUTLIER_NMADS` NMADs of the median, found
+    again until the set settles (at most five rounds)."""
+    stable = np.isfinite(dh)
+    for _ in range(5):
+        values = dh[stable]
+        if len(values) < MIN_STABLE:
+            return stable
+        centre, spread = float(np.median(values)), nmad(values)
+        now = np.isfinite(dh) & (np.abs(dh - centre) <= OUTLIER_NMADS * max(spread, 1e-3))
+        if np.array_equal(now, stable):
+            break
+        stable = now
+    return stable
+
+
+def estimate_shift(before: Raster, after: Raster, *, method: str | Coregistration = Coregistration.AUTO) -> Shift:
+    """The shift that aligns ``after`` to ``before`` (two surfaces on one grid), by ``method``.
+
+    ``none`` estimates nothing; ``vertical`` the vertical shift alone; ``nuth-kaab`` both,
+    applied whatever their size; ``auto`` both, each applied only where significant. The
+    estimates are reported whether they apply or not.
+    """
+    m = parse(Coregistration, method)
+    if m is Coregistration.NONE:
+        return Shift(method=m)
+    cell = before.cell
+    dx = dy = 0.0
+    sigma_xy = float("nan")
+    if m is not Coregistration.VERTICAL:
+        dx, dy, sigma_xy = _nuth_kaab(before.data, after.data, cell)
+    found = bool(np.isfinite(sigma_xy))
+    horizontal = found and (
+        m is Coregistration.NUTH_KAAB or (m is Coregistration.AUTO and np.hypot(dx, dy) > SIGNIFICANCE * sigma_xy)
+    )
+    aligned = resample(after.data, dx / cell, -dy / cell) if horizontal else after.data
+    dh = aligned - before.data
+    stable = stable_cells(dh)
+    values = dh[stable]
+    share = len(values) / max(int(np.isfinite(dh).sum()), 1)
+    if len(values) < MIN_STABLE:
+        return Shift(dx=dx, dy=dy, sigma_xy=sigma_xy, stable_share=share, method=m)
+    dz = float(np.median(values))
+    sigma_z = nmad(values) / np.sqrt(_independent(len(values), cell))
+    vertical = m is not Coregistration.AUTO or abs(dz) > SIGNIFICANCE * sigma_z
+    return Shift(
+        dx=dx,
+        dy=dy,
+        dz=dz,
+        sigma_xy=sigma_xy,
+        sigma_z=float(sigma_z),
+        nmad=nmad(values),
+        stable_share=share,
+        method=m,
+        horizontal=horizontal,
+        vertical=vertical,
+    )
+
+
+def _independent(cells: int, cell: float) -> float:
+    """Independent samples among ``cells`` stable cells of side ``cell`` (see the module)."""
+    return float(max(1.0, min(cells, cells * cell * cell / CORRELATION**2)))
+
+
+def _nuth_kaab(before: NDArray[np.float64], after: NDArray[np.float64], cell: float) -> tuple[float, float, float]:
+    """Horizontal shift (dx, dy) of ``after`` from ``before`` and its standard error (m)."""
+    d_row, gx = np.gradient(before, cell)
+    gy = -np.asarray(d_row)  # rows run north to south
+    gx = np.asarray(gx)
+    tan = np.hypot(gx, gy)
+    sloped = (tan > np.tan(np.radians(MIN_SLOPE))) & (tan < np.tan(np.radians(MAX_SLOPE)))
+    dx = dy = 0.0
+    sigma = float("nan")
+    for _ in range(MAX_ITERATIONS):
+        dh = (resample(after, dx / cell, -dy / cell) if (dx or dy) else after) - before
+        use = sloped & stable_cells(dh)
+        if use.sum() < MIN_STABLE:
+            return 0.0, 0.0, float("nan")
+        # after(x) ≈ before(x − d) + c, so dh ≈ −∇before · d + c; divided by tan α (Nuth & Kääb):
+        # dh / tan α = −(ux dx + uy dy) + c / tan α, with u the unit upslope direction
+        t = tan[use]
+        a = np.column_stack([-gx[use] / t, -gy[use] / t, 1.0 / t])
+        y = dh[use] / t
+        fit, *_ = np.linalg.lstsq(a, y, rcond=None)
+        residual = y - a @ fit
+        # standard error from the residual's robust spread and the independent samples
+        scale = nmad(residual) ** 2 * len(y) / _independent(len(y), cell)
+        cov = np.linalg.pinv(a.T @ a) * scale
+        sigma = float(np.sqrt(max(cov[0, 0] + cov[1, 1], 0.0) / 2))
+        dx, dy = dx + float(fit[0]), dy + float(fit[1])
+        if np.hypot(fit[0], fit[1]) < STEP:
+            break
+    return dx, dy, sigma

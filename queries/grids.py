@@ -1,0 +1,90 @@
+"""Two versions' rebuilt surfaces on one grid of the level's sub-grid nodes.
+
+Each version's surface is rebuilt tile by tile from the points it keeps (the line rebuild of
+:mod:`tdb.surface`, as change detection compares it), so a node's value depends on its own tile
+alone: the same whatever box it is read in. Nodes of tiles that either version lacks, or holds as
+no data, stay no data rather than an interpolation across the gap.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tdb.categories import NO_DATA
+from tdb.database import Database
+from tdb.errors import InputError
+from tdb.raster import MAX_CELLS, Raster
+from tdb.surface import line_rebuild_at
+from tdb.tiles import SUBGRID, node_lattice, node_spacing, tile_key
+
+Box = tuple[float, float, float, float]
+
+
+def shared_tiles(
+    db: Database, before: str, after: str, *, level: int, bbox: tuple[float, float, float, float] | None
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8], NDArray[np.uint8]]:
+    """(xg, yg) of the tiles both versions hold at ``level`` in ``bbox``, and each one's code in either."""
+    xa, ya, ca = db.tiles(before, level=level, bbox=bbox, ordered=False)
+    xb, yb, cb = db.tiles(after, level=level, bbox=bbox, ordered=False)
+    _, ia, ib = np.intersect1d(tile_key(xa, ya), tile_key(xb, yb), return_indices=True)
+    return xa[ia], ya[ia], ca[ia], cb[ib]
+
+
+def surface_grids(
+    db: Database,
+    before: str,
+    after: str,
+    *,
+    level: int = 2,
+    bbox: Box | None = None,
+    max_cells: int = MAX_CELLS // 10,
+    fit: bool = False,
+) -> tuple[Raster, Raster]:
+    """Both versions' rebuilt surfaces on one grid of the level's sub-grid nodes, as
+    the module describes (NaN outside the tiles both hold); a grid over ``max_cells`` raises an
+    :class:`InputError`, or with ``fit`` keeps every k-th node."""
+    xg, yg, ca, cb = shared_tiles(db, before, after, level=level, bbox=bbox)
+    held = (ca != NO_DATA) & (cb != NO_DATA)
+    xg, yg = xg[held], yg[held]
+    if len(xg) == 0:
+        raise InputError(f"versions {before!r} and {after!r} share no tiles at level {level} there")
+    s = node_spacing(level)
+    x0, y0, x1, y1 = bbox or (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
+    i0, j0 = int(np.ceil(x0 / s - 1e-9)), int(np.ceil(y0 / s - 1e-9))
+    i1, j1 = int(np.floor(x1 / s + 1e-9)), int(np.floor(y1 / s + 1e-9))
+    step = 1
+    cells = (i1 - i0 + 1) * (j1 - j0 + 1)
+    if cells > max_cells and fit:
+        step = int(np.ceil(np.sqrt(cells / max_cells)))
+        cells = ((i1 - i0) // step + 1) * ((j1 - j0) // step + 1)
+    if cells > max_cells:
+        raise InputError(
+            f"a {s} m difference grid over this area needs {cells:,} cells (most {max_cells:,}); "
+            "give a smaller bbox"
+        )
+    grown = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
+    # Scatter the tiles' nodes onto the grid; neighbours share their edge nodes, with one value.
+    d = np.arange(SUBGRID)
+    ni = (np.rint(xg / s).astype(np.int64)[:, None, None] + d[None, None, :]).repeat(SUBGRID, axis=1)
+    nj = (np.rint(yg / s).astype(np.int64)[:, None, None] + d[None, :, None]).repeat(SUBGRID, axis=2)
+    rows, cols = (j1 - j0) // step + 1, (i1 - i0) // step + 1
+    ci, cj = ni - i0, nj - j0
+    ok = (ci >= 0) & (cj >= 0) & (ci % step == 0) & (cj % step == 0) & (ci // step < cols) & (cj // step < rows)
+    cell = s * step
+    out = []
+    for version in (before, after):
+        grid = np.full((rows, cols), np.nan)
+        grid[rows - 1 - cj[ok] // step, ci[ok] // step] = _surface(db, version, level, xg, yg, grown)[
+            ok
+        ]  # north first
+        out.append(Raster(grid, i0 * s - cell / 2, (j0 + (rows - 1) * step) * s + cell / 2, cell, db.crs(version)))
+    return out[0], out[1]
+
+
+def _surface(db: Database, version: str, level: int, xg: Any, yg: Any, box: Box) -> np.ndarray:
+    x, y, z, _ = db.points(version, level=level, bbox=box, ordered=False)
+    nodes = node_lattice(x, y, z, level).tile_nodes(xg, yg)
+    return line_rebuild_at(nodes).reshape(nodes.shape)

@@ -1,0 +1,99 @@
+"""Co-registration: a known offset of one surface is recovered, and none is applied where none is."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from queries.coregister import estimate_shift, resample, stable_cells
+from tdb.errors import CRSError
+from tdb.options import Coregistration
+from tdb.raster import Raster
+
+CELL = 1.0
+
+
+def terrain(x, y):
+    """Hills of several sizes: slopes facing every way, up to about 30°."""
+    return (
+        100
+        + 8 * np.sin(x / 37.0) * np.cos(y / 29.0)
+        + 3 * np.sin((x + 2 * y) / 13.0)
+        + 1.5 * np.cos((x - y) / 7.0)
+    )
+
+
+def grids(dx, dy, dz, *, noise=0.03, seed=0, size=240, change=True):
+    """Before and after on one grid; ``after`` is the terrain surveyed with offset (dx, dy, dz),
+    with noise, and with a raised block (a change) that must not pull the estimate."""
+    rng = np.random.default_rng(seed)
+    xs = np.arange(size) * CELL + CELL / 2
+    ys = (np.arange(size) * CELL + CELL / 2)[::-1]  # rows north to south
+    gx, gy = np.meshgrid(xs, ys)
+    before = terrain(gx, gy) + rng.normal(0, noise, gx.shape)
+    # the later survey sees the point (x, y) at (x + dx, y + dy), dz too high
+    after = terrain(gx - dx, gy - dy) + dz + rng.normal(0, noise, gx.shape)
+    if change:
+        after[40:80, 150:200] += 2.0
+    top = size * CELL
+    return Raster(before, 0.0, top, CELL), Raster(after, 0.0, top, CELL)
+
+
+@settings(max_examples=12, deadline=None)
+@given(
+    st.floats(-1.0, 1.0),
+    st.floats(-1.0, 1.0),
+    st.floats(-0.5, 0.5),
+    st.integers(0, 1000),
+)
+def test_a_known_offset_is_recovered(dx, dy, dz, seed):
+    before, after = grids(dx, dy, dz, seed=seed)
+    s = estimate_shift(before, after, method=Coregistration.NUTH_KAAB)
+    assert abs(s.dx - dx) <= 0.10 and abs(s.dy - dy) <= 0.10
+    assert abs(s.dz - dz) <= 0.02
+    aligned = s.apply(after).data - before.data
+    stable = stable_cells(aligned)
+    assert np.nanmedian(np.abs(aligned[stable])) < 0.05  # down to the noise
+
+
+def test_auto_applies_nothing_without_an_offset_and_all_with_one():
+    before, after = grids(0.0, 0.0, 0.0, seed=3)
+    s = estimate_shift(before, after, method=Coregistration.AUTO)
+    assert not s.horizontal and not s.vertical
+    before, after = grids(0.6, -0.4, 0.25, seed=3)
+    s = estimate_shift(before, after, method=Coregistration.AUTO)
+    assert s.horizontal and s.vertical
+    assert abs(s.dx - 0.6) <= 0.1 and abs(s.dz - 0.25) <= 0.02
+
+
+def test_vertical_only_leaves_the_plan_alone_and_none_does_nothing():
+    before, after = grids(0.0, 0.0, -0.4, seed=5)
+    s = estimate_shift(before, after, method=Coregistration.VERTICAL)
+    assert not s.horizontal and s.vertical and abs(s.dz + 0.4) <= 0.02
+    assert s.dx == 0 and s.dy == 0
+    none = estimate_shift(before, after, method=Coregistration.NONE)
+    assert not none.applied and none.apply(after).data is after.data
+
+
+def test_resample_moves_by_the_fraction_asked_and_keeps_holes():
+    data = np.arange(20.0).reshape(4, 5)
+    data[1, 1] = np.nan
+    out = resample(data, 0.5, 0.0)
+    assert out[0, 0] == pytest.approx(0.5)
+    assert np.isnan(out[1, 0]) and np.isnan(out[1, 1])  # a neighbour is a hole
+    assert np.isnan(out[0, 4])  # beyond the edge
+
+
+def test_differing_horizontal_crs_are_refused():
+    from pyproj import CRS
+
+    from tdb.crs import check_same_horizontal, vertical_part
+
+    utm = CRS.from_epsg(26917)
+    with_height = CRS.from_user_input("EPSG:26917+5713")  # NAD83 / UTM 17N + CGVD28
+    check_same_horizontal(utm, with_height, names=("a", "b"))  # the same plan; only one has heights
+    assert vertical_part(with_height) is not None and vertical_part(utm) is None
+    with pytest.raises(CRSError, match="different horizontal"):
+        check_same_horizontal(utm, CRS.from_epsg(32617), names=("a", "b"))
