@@ -57,9 +57,15 @@ RULES = (  # (filter, sign of dz, kind when the filter matches in the later vers
 EXTRA_LEVELS = {"pit": (4,), "mound": (4,)}
 
 
-def level_of_detection(db: Database, a: str, b: str) -> float:
+def level_of_detection(db: Database, a: str, b: str, *, shift: Shift | None = None) -> float:
     """95 % level of detection from both surveys' ground noise and the error of their
-    surfaces rebuilt from the kept points (the reduction RMSE), at least ``MIN_LOD``."""
+    surfaces rebuilt from the kept points (the reduction RMSE), at least ``MIN_LOD``; with a
+    co-registration ``shift``, at least 1.96 × the residual spread it left on stable ground."""
+    residual = 1.96 * shift.nmad if shift is not None and np.isfinite(shift.nmad) else 0.0
+    return max(residual, _noise_lod(db, a, b))
+
+
+def _noise_lod(db: Database, a: str, b: str) -> float:
     terms = []
     for name in (a, b):
         stats = db.version(name).stats
@@ -251,12 +257,10 @@ def detect(
     differ = np.flatnonzero((c1 != c2) & valid)
     if len(differ) == 0:
         return []
-    lod = level_of_detection(db, before, after)
+    lod = level_of_detection(db, before, after, shift=shift)
     lattices = {name: _lattice(db, name, level, xg[differ], yg[differ]) for name in (before, after)}
     if shift is not None and shift.applied:
         lattices[after] = shifted_lattice(lattices[after], shift)
-    if shift is not None and np.isfinite(shift.nmad):
-        lod = max(lod, 1.96 * shift.nmad)
     tiles = _Tiles(xg, yg, lattices[before], lattices[after], lod)
     tested, dz, moved = tiles.moved(differ)
     if not moved.any():

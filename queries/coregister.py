@@ -35,6 +35,7 @@ from scipy import ndimage
 from queries.grids import Box, surface_grids
 from tdb.crs import check_same_horizontal
 from tdb.database import Database
+from tdb.fill import fill_nearest
 from tdb.options import Coregistration, parse
 from tdb.raster import Raster
 from tdb.surface import line_rebuild_at
@@ -151,7 +152,8 @@ def shifted_lattice(lattice: NodeLattice, shift: Shift) -> NodeLattice:
         return lattice
     z = lattice.z
     if shift.horizontal:
-        z = resample(_rebuilt(lattice), shift.dx / lattice.spacing, shift.dy / lattice.spacing)  # rows run north
+        # cubic: a bilinear read between nodes blunts a wall's or a ridge's crest into a change
+        z = resample(_rebuilt(lattice), shift.dx / lattice.spacing, shift.dy / lattice.spacing, order=3)
     if shift.vertical:
         z = z - shift.dz
     return replace(lattice, z=z)
@@ -185,14 +187,15 @@ def nmad(values: NDArray[np.float64]) -> float:
     return float(1.4826 * np.median(np.abs(values - np.median(values))))
 
 
-def resample(data: NDArray[np.float64], di: float, dj: float) -> NDArray[np.float64]:
-    """``data`` read at (column + di, row + dj) bilinearly; NaN where a neighbour is NaN or outside."""
+def resample(data: NDArray[np.float64], di: float, dj: float, *, order: int = 1) -> NDArray[np.float64]:
+    """``data`` read at (column + di, row + dj), bilinearly (``order`` 1) or by cubic splines
+    (3); NaN where a neighbour is NaN or outside."""
     rows, cols = data.shape
     jj, ii = np.mgrid[0:rows, 0:cols].astype(np.float64)
     valid = np.isfinite(data)
-    filled = np.where(valid, data, 0.0)
+    filled = fill_nearest(data) if order > 1 and valid.any() and not valid.all() else np.where(valid, data, 0.0)
     coords = np.array([jj + dj, ii + di])
-    values = ndimage.map_coordinates(filled, coords, order=1, mode="constant", cval=np.nan)
+    values = ndimage.map_coordinates(filled, coords, order=order, mode="nearest")
     weight = ndimage.map_coordinates(valid.astype(np.float64), coords, order=1, mode="constant", cval=0.0)
     return np.where(weight > 1 - 1e-6, values, np.nan)
 

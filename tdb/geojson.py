@@ -16,11 +16,14 @@ def feature(geometry: shapely.Geometry, properties: dict[str, Any]) -> dict[str,
     return {"type": "Feature", "geometry": shapely.geometry.mapping(geometry), "properties": properties}
 
 
-def feature_collection(features: list[dict[str, Any]], crs: Any) -> dict[str, Any]:
-    """A FeatureCollection of ``features`` in ``crs`` (a pyproj CRS, anything it reads, or None)."""
+def feature_collection(
+    features: list[dict[str, Any]], crs: Any, *, members: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """A FeatureCollection of ``features`` in ``crs`` (a pyproj CRS, anything it reads, or None),
+    with foreign ``members`` (such as a diff's ``coregistration``) beside them."""
     from tdb.crs import as_crs
 
-    doc: dict[str, Any] = {"type": "FeatureCollection", "features": features}
+    doc: dict[str, Any] = {"type": "FeatureCollection", **(members or {}), "features": features}
     parsed = as_crs(crs)
     code = parsed.to_epsg() if parsed is not None else None
     if code:

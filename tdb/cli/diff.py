@@ -8,6 +8,7 @@ import click
 
 from tdb.cli.options import bbox_option, level_option
 from tdb.cli.output import check_output, emit, output_options
+from tdb.options import Coregistration
 
 PICTURE = 4_000_000  # most cells of a change map's background
 
@@ -21,6 +22,14 @@ PICTURE = 4_000_000  # most cells of a change map's background
 @output_options
 @click.option(
     "--png", type=click.Path(path_type=Path), help="Also draw a change map (over the DEM of difference)."
+)
+@click.option(
+    "--coregister",
+    type=click.Choice(Coregistration.values()),
+    default=Coregistration.AUTO.value,
+    show_default=True,
+    help="Align the later survey on stable ground first: auto applies each shift only where significant; "
+    "vertical: a height shift only; nuth-kaab: horizontal and vertical whatever their size; none.",
 )
 @click.option(
     "--dod",
@@ -38,6 +47,7 @@ def command(
     layer: str | None,
     append: bool,
     png: Path | None,
+    coregister: str,
     dod: Path | None,
 ) -> None:
     """Compare the tile categories of two versions, gated by the level of detection, and
@@ -50,23 +60,39 @@ def command(
       tdb diff 2020 2024 --db park.tdb --format table
       tdb diff 2020 2024 --db park.tdb --format gpkg --out changes.gpkg
       tdb diff 2020 2024 --db park.tdb --bbox 500000,5500000,500400,5500400 --dod dod.tif
+      tdb diff 2019 2023 --db park.tdb --coregister nuth-kaab   # surveys on different height datums
     """
     import tdb
     from queries.changes import detect, level_of_detection
+    from queries.coregister import coregister as align
     from queries.dod import describe, difference_of_surfaces
 
     check_output(fmt, out, layer=layer, append=append)
     with tdb.open(db_path) as db:
-        found = detect(db, before, after, level=level, bbox=bbox)
+        shift = align(db, before, after, level=level, bbox=bbox, method=coregister)
+        if shift.method is not Coregistration.NONE:
+            click.echo(f"co-registration ({shift.method}): {shift.describe()}", err=True)
+        found = detect(db, before, after, level=level, bbox=bbox, shift=shift)
         crs = db.crs(after)
-        lod = level_of_detection(db, before, after)
+        lod = level_of_detection(db, before, after, shift=shift)
         if dod:
-            grid = difference_of_surfaces(db, before, after, level=level, bbox=bbox)
+            grid = difference_of_surfaces(db, before, after, level=level, bbox=bbox, shift=shift)
         elif png:  # a background for the map: coarser cells over a large area
-            grid = difference_of_surfaces(db, before, after, level=level, bbox=bbox, max_cells=PICTURE, fit=True)
+            grid = difference_of_surfaces(
+                db, before, after, level=level, bbox=bbox, max_cells=PICTURE, fit=True, shift=shift
+            )
         else:
             grid = None
-    emit(found, fmt=fmt, crs=crs, out=out, layer=layer or "changes", noun="changed region(s)", append=append)
+    emit(
+        found,
+        fmt=fmt,
+        crs=crs,
+        out=out,
+        layer=layer or "changes",
+        noun="changed region(s)",
+        append=append,
+        members={"coregistration": shift.to_json()},
+    )
     if dod:
         assert grid is not None  # made above whenever --dod is given
         from tdb.geotiff import write_geotiff
@@ -82,5 +108,10 @@ def command(
     if png:
         from tdb.pictures import change_map
 
-        change_map(png, found, title=f"{before} → {after}, {level} m tiles", dod=grid, lod=lod, crs=crs)
+        aligned = ""
+        if shift.horizontal:
+            aligned = f"; aligned by dx {shift.dx:+.2f}, dy {shift.dy:+.2f}, dz {shift.dz:+.2f} m"
+        elif shift.vertical:
+            aligned = f"; aligned by dz {shift.dz:+.2f} m"
+        change_map(png, found, title=f"{before} → {after}, {level} m tiles{aligned}", dod=grid, lod=lod, crs=crs)
         click.echo(f"change map → {png}", err=True)

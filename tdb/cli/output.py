@@ -55,8 +55,10 @@ def emit(
     layer: str,
     noun: str,
     append: bool = False,
+    members: dict[str, Any] | None = None,
 ) -> None:
-    """Write ``features`` in ``fmt`` to ``out`` (or stdout) and say on stderr what went where."""
+    """Write ``features`` in ``fmt`` to ``out`` (or stdout) and say on stderr what went where;
+    GeoJSON carries ``members`` beside the features."""
     kind = parse(OutputFormat, fmt)
     if kind is OutputFormat.GPKG:
         from tdb.geopackage import write_geopackage
@@ -65,7 +67,7 @@ def emit(
         write_geopackage(out, {layer: features}, crs=crs, append=append)
         click.echo(f"{len(features)} {noun} → {out}, layer {layer}", err=True)
         return
-    body = render(features, kind, crs)
+    body = render(features, kind, crs, members=members)
     if out is None:
         click.echo(body)
         return
@@ -73,12 +75,14 @@ def emit(
     click.echo(f"{len(features)} {noun} → {out}", err=True)
 
 
-def render(features: list[dict[str, Any]], fmt: OutputFormat, crs: Any) -> str:
+def render(
+    features: list[dict[str, Any]], fmt: OutputFormat, crs: Any, *, members: dict[str, Any] | None = None
+) -> str:
     """Features as GeoJSON text, CSV of their properties, or an aligned table."""
     from tdb.geojson import feature_collection
 
     if fmt is OutputFormat.GEOJSON:
-        return json.dumps(feature_collection(features, crs))
+        return json.dumps(feature_collection(features, crs, members=members))
     rows = [f["properties"] for f in features]
     keys = sorted({k for r in rows for k in r})
     if fmt is OutputFormat.CSV:
