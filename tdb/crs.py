@@ -67,3 +67,17 @@ def check_same_horizontal(a: pyproj.CRS | None, b: pyproj.CRS | None, *, names: 
             f"versions {names[0]!r} and {names[1]!r} are in different horizontal coordinate systems "
             f"({describe(ha)}; {describe(hb)}); ingest one of them again in the other's"
         )
+
+
+def height_reference_note(a: pyproj.CRS | None, b: pyproj.CRS | None, *, names: tuple[str, str]) -> str | None:
+    """A sentence for a person where two surveys' heights may not share a reference: their
+    vertical CRSs differ, or one declares none. None where both declare the same one, or neither."""
+    va, vb = vertical_part(a), vertical_part(b)
+    if va is None and vb is None:
+        return None
+    if va is not None and vb is not None and va.equals(vb):
+        return None
+    return (
+        f"heights of {names[0]!r} are in {describe(va)} and of {names[1]!r} in {describe(vb)}: "
+        "they may not share a height reference"
+    )

@@ -136,3 +136,18 @@ def test_an_offset_resurvey_reads_as_the_same_changes_once_aligned(tmp_path):
 
     assert area(aligned) <= 1.3 * area(reference)
     assert area(raw) > 10 * area(aligned)  # as it is, the offset swamps every change
+
+
+def test_a_note_where_heights_may_not_share_a_reference():
+    from pyproj import CRS
+
+    from tdb.crs import height_reference_note
+
+    utm = CRS.from_epsg(26917)
+    cgvd28 = CRS.from_user_input("EPSG:26917+5713")
+    navd88 = CRS.from_user_input("EPSG:26917+5703")
+    assert height_reference_note(utm, utm, names=("a", "b")) is None
+    assert height_reference_note(cgvd28, cgvd28, names=("a", "b")) is None
+    note = height_reference_note(cgvd28, utm, names=("2019", "2023"))
+    assert note and "CGVD28" in note and "none declared" in note
+    assert "NAVD88" in (height_reference_note(cgvd28, navd88, names=("a", "b")) or "")

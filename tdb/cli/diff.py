@@ -8,6 +8,7 @@ import click
 
 from tdb.cli.options import bbox_option, level_option
 from tdb.cli.output import check_output, emit, output_options
+from tdb.crs import height_reference_note
 from tdb.options import Coregistration
 
 PICTURE = 4_000_000  # most cells of a change map's background
@@ -69,6 +70,9 @@ def command(
 
     check_output(fmt, out, layer=layer, append=append)
     with tdb.open(db_path) as db:
+        note = height_reference_note(db.crs(before), db.crs(after), names=(before, after))
+        if note:
+            click.echo(f"note: {note}; co-registration on stable ground aligns them", err=True)
         shift = align(db, before, after, level=level, bbox=bbox, method=coregister)
         if shift.method is not Coregistration.NONE:
             click.echo(f"co-registration ({shift.method}): {shift.describe()}", err=True)

@@ -38,9 +38,11 @@ def command(path: Path, crs: str | None, labels: str, as_json: bool) -> None:
 
 def _database_info(path: Path, as_json: bool) -> None:
     import tdb
+    from tdb.crs import describe, horizontal_part, vertical_part
 
     with tdb.open(path) as db:
         versions = db.versions()
+        crs = {v.name: db.crs(v.name) for v in versions}
         doc = {
             "database": str(path),
             "schema_version": db.schema_version(),
@@ -50,6 +52,8 @@ def _database_info(path: Path, as_json: bool) -> None:
                     "acquired": v.acquired.isoformat() if v.acquired else None,
                     "source": v.source,
                     "created": v.created,
+                    "horizontal_crs": describe(horizontal_part(crs[v.name])),
+                    "vertical_crs": describe(vertical_part(crs[v.name])),
                     "params": v.params,
                     "stats": v.stats.to_json(),
                 }
@@ -64,6 +68,10 @@ def _database_info(path: Path, as_json: bool) -> None:
         s, r = v.stats, v.stats.reduction
         b = s.bounds or (0.0, 0.0, 0.0, 0.0)
         click.echo(f"- {v.name}: acquired {v.acquired or 'unknown'}, from {v.source}")
+        click.echo(
+            f"    horizontal CRS {describe(horizontal_part(crs[v.name]))}; "
+            f"heights {describe(vertical_part(crs[v.name]))}"
+        )
         click.echo(f"    extent x {b[0]:.1f} .. {b[2]:.1f}, y {b[1]:.1f} .. {b[3]:.1f}")
         click.echo(
             f"    tiles {'/'.join(map(str, LEVELS))} m: {'/'.join(str(r.tiles.get(lv)) for lv in LEVELS)}; "
