@@ -41,7 +41,7 @@ class Condition:
 class Query:
     what: str
     version: str
-    to_version: str | None = None
+    to_versions: list[str] = field(default_factory=list)  # SELECT changes FROM a TO b [TO c …]
     bbox: tuple[float, float, float, float] | None = None
     categories: list[int] | None = None
     conditions: list[Condition] = field(default_factory=list)
@@ -49,6 +49,11 @@ class Query:
     order_by: str | None = None
     descending: bool = False
     limit: int | None = None
+
+    @property
+    def to_version(self) -> str | None:
+        """The first version after ``FROM``'s, if any."""
+        return self.to_versions[0] if self.to_versions else None
 
 
 @dataclass(frozen=True)
@@ -120,8 +125,8 @@ class _Parser:
         what = self.expect("name").text.lower()
         self.expect("kw", "from")
         q = Query(what, self.version())
-        if self.accept("kw", "to"):
-            q.to_version = self.version()
+        while self.accept("kw", "to"):
+            q.to_versions.append(self.version())
         if self.accept("kw", "where"):
             self.condition(q)
             while self.accept("kw", "and"):

@@ -9,6 +9,7 @@ import numpy as np
 import shapely
 
 from queries.filters import Match
+from queries.history import change_history
 from queries.language import Query, parse
 from queries.match import find, resolve
 from queries.profile import SIDE, Nodes, Stretch, stretches, weighted_median
@@ -53,12 +54,7 @@ def _select(db: Database, q: Query, text: str, progress: Progress | None = None)
     if q.what == "tiles":
         return _tiles(db, q)
     if q.what == "changes":
-        if q.to_version is None:
-            raise QueryError("SELECT changes needs FROM <version> TO <version>", text=text, position=0)
-        from queries.changes import detect
-
-        found = detect(db, q.version, q.to_version, level=q.level or 2, bbox=q.bbox)
-        return [f for f in found if _keep(f["properties"], q)]
+        return _changes(db, q, text)
     if q.to_version is not None:
         raise QueryError(
             "TO <version> belongs to SELECT changes", text=text, position=text.lower().find(" to ") + 1
@@ -70,20 +66,30 @@ def _select(db: Database, q: Query, text: str, progress: Progress | None = None)
     matches = find(db, q.version, q.what, level=q.level, bbox=q.bbox)
     if "width" in {c.attribute for c in q.conditions} | {q.order_by}:
         return _by_stretch(db, q, matches, progress=progress)
-    out = []
-    for m in matches:
-        props = {
-            "kind": m.filter,
-            "level": m.level,
-            "tiles": len(m.tiles),
-            "length": round(m.length, 2),
-            ("depth" if m.filter in ("ditch", "pit") else "height"): round(m.measure, 3),
-        }
-        if np.isfinite(m.shoulder):
-            props["shoulder"] = round(m.shoulder, 2)
-        if _keep(props, q):
-            out.append(feature(m.geometry, props))
-    return out
+    return [f for f in map(_feature_of, matches) if _keep(f["properties"], q)]
+
+
+def _changes(db: Database, q: Query, text: str) -> list[dict[str, Any]]:
+    """Changes FROM a TO b [TO c …]: co-registered on stable ground, as :mod:`queries.history` says."""
+    if q.to_version is None:
+        raise QueryError("SELECT changes needs FROM <version> TO <version>", text=text, position=0)
+    for name in q.to_versions:
+        db.version(name)
+    found = change_history(db, [q.version, *q.to_versions], level=q.level or 2, bbox=q.bbox)
+    return [f for f in found if _keep(f["properties"], q)]
+
+
+def _feature_of(m: Match) -> dict[str, Any]:
+    props: dict[str, Any] = {
+        "kind": m.filter,
+        "level": m.level,
+        "tiles": len(m.tiles),
+        "length": round(m.length, 2),
+        ("depth" if m.filter in ("ditch", "pit") else "height"): round(m.measure, 3),
+    }
+    if np.isfinite(m.shoulder):
+        props["shoulder"] = round(m.shoulder, 2)
+    return feature(m.geometry, props)
 
 
 def _by_stretch(

@@ -151,3 +151,45 @@ def test_a_note_where_heights_may_not_share_a_reference():
     note = height_reference_note(cgvd28, utm, names=("2019", "2023"))
     assert note and "CGVD28" in note and "none declared" in note
     assert "NAVD88" in (height_reference_note(cgvd28, navd88, names=("a", "b")) or "")
+
+
+@pytest.mark.slow
+def test_changes_over_three_versions_have_a_history(tmp_path):
+    """a → b: the scene's changes; b → c: a second set, surveyed on a height datum 0.3 m higher.
+    Each region's history says when it first changed; the datum does not read as change."""
+    import dataclasses
+
+    import tdb
+    from ingest.pipeline import ingest
+    from ingest.synth import apply_changes, make_scene, sample
+    from queries.run import run
+
+    scene = make_scene(seed=3, size=150)
+    later, first = apply_changes(scene, seed=3)
+    latest, second = apply_changes(later, seed=11)
+    c = sample(latest, density=3, seed=13)
+    db = tdb.open(tmp_path / "h.tdb", create=True)
+    ingest(sample(scene, density=3, seed=3), db, version="a")
+    ingest(sample(later, density=3, seed=4), db, version="b")
+    ingest(dataclasses.replace(c, xyz=c.xyz + np.array([0.0, 0.0, 0.3])), db, version="c")
+    found = run(db, "SELECT changes FROM a TO b TO c")
+    assert found
+    site = 150 * 150
+    assert max(f["properties"]["area"] for f in found) < 0.2 * site  # no region spans the site
+    geoms = [(shapely_shape(f), f["properties"]) for f in found]
+    for changes, version in ((first, "b"), (second, "c")):
+        for change in changes:
+            hits = [p for g, p in geoms if g.intersects(change.area)]
+            if hits:  # what is found is dated to the interval it happened in
+                assert any(p["first_changed"] == version or p[f"dz_{version}"] != 0.0 for p in hits)
+    dated = {p["first_changed"] for _, p in geoms}
+    assert dated == {"b", "c"}
+    from queries.coregister import coregister
+
+    assert abs(coregister(db, "b", "c").dz - 0.3) <= 0.02
+
+
+def shapely_shape(f):
+    import shapely
+
+    return shapely.geometry.shape(f["geometry"])
