@@ -49,6 +49,12 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
     t0 = time.perf_counter()
     found = detect(db, "before", "after")
     diff_s = time.perf_counter() - t0
+    return {**score(found, changes), "diff_s": diff_s}
+
+
+def score(found: list[dict[str, Any]], changes: list[Any]) -> dict[str, Any]:
+    """Recall and precision by area of the regions ``found`` against the true ``changes``, and
+    the kind each true change was given (the region that covers most of it)."""
     truth = [c for c in changes if c.terrain and abs(c.dz) >= 0.5]
     true_area = shapely.union_all([c.area for c in truth]) if truth else shapely.GeometryCollection()
     regions = [(shapely.geometry.shape(f["geometry"]), f["properties"]["kind"]) for f in found]
@@ -61,7 +67,7 @@ def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str,
         overlaps = [(g.intersection(c.area).area, kind) for g, kind in regions]
         best = max(overlaps, default=(0.0, None))
         typed[c.kind] = {"expected": EXPECTED.get(c.kind), "got": best[1] if best[0] > 0 else None}
-    return {"recall": recall, "precision": precision, "typed": typed, "regions": len(regions), "diff_s": diff_s}
+    return {"recall": recall, "precision": precision, "typed": typed, "regions": len(regions)}
 
 
 def km2_pair(workdir: Path, *, density: float, size: float = 1000.0, rounds: int = 4) -> Path:
