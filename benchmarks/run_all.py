@@ -20,6 +20,7 @@ MODULES = (
     "features",
     "changes_synth",
     "epochs",
+    "coregister_synth",
 )
 
 
