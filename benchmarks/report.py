@@ -135,7 +135,8 @@ def coregister_section(out: list[str]) -> None:
             f"| {'xy' if r['applied'][0] else '–'} {'z' if r['applied'][1] else '–'} "
             f"| {r['recall']:.2f} / {r['precision']:.2f} "
             f"| {r['recall_without_offset']:.2f} / {r['precision_without_offset']:.2f} "
-            f"| {r['typed_as_without_offset']} of {r['changes']} | {'applied' if r['no_offset_applied'] else 'none'} |"
+            f"| {r['typed_as_without_offset']} of {r['changes']} "
+            f"| {'applied' if r['no_offset_applied'] else 'none'} |"
         )
     for label, m in (("seeds 1–10", doc["mean"]), ("held out", (doc.get("holdout") or {}).get("mean"))):
         if not m:
