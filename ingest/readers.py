@@ -15,6 +15,7 @@ from typing import Any
 
 import laspy
 import numpy as np
+from numpy.typing import NDArray
 
 from tdb.atomic import atomic_path
 from tdb.cloud import PointCloud, check_finite, check_spread, from_arrays
@@ -67,6 +68,58 @@ def read(
         check_finite(cloud)
         check_spread(cloud)
     return cloud
+
+
+def read_box(
+    path: str | os.PathLike[str], box: tuple[float, float, float, float], *, chunk_size: int = 1_000_000
+) -> PointCloud:
+    """The points of a LAS/LAZ file inside ``box`` (x0, y0, x1, y1; edges included), decoded
+    chunk by chunk so that only the box's points are ever held.
+
+    Raises
+    ------
+    TdbIOError, FormatError
+        As :func:`read`, for a missing, unreadable or corrupt file.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise TdbIOError(f"{p}: no such file")
+    x0, y0, x1, y1 = box
+    parts: list[dict[str, NDArray[Any]]] = []
+    try:
+        reader = laspy.open(p)
+    except Exception as exc:  # the parser raises struct, value, lazrs... errors on bad bytes
+        raise FormatError(f"{p}: not a readable LAS/LAZ file ({exc})") from None
+    with reader:
+        try:
+            crs = reader.header.parse_crs()
+            for chunk in reader.chunk_iterator(chunk_size):
+                x, y = np.asarray(chunk.x), np.asarray(chunk.y)
+                inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+                if inside.any():
+                    parts.append(
+                        {
+                            "xyz": np.column_stack([x[inside], y[inside], np.asarray(chunk.z)[inside]]),
+                            "cls": np.asarray(chunk.classification)[inside],
+                            "rn": np.asarray(chunk.return_number)[inside],
+                            "nr": np.asarray(chunk.number_of_returns)[inside],
+                        }
+                    )
+        except Exception as exc:  # any decoder failure means corrupt data
+            raise FormatError(f"{p}: corrupt or truncated point data ({exc})") from None
+    if not parts:
+        empty = np.zeros(0, np.uint8)
+        return PointCloud(np.zeros((0, 3)), empty, empty.copy(), empty.copy(), crs=crs, source=str(p))
+    rn = np.maximum(np.concatenate([q["rn"] for q in parts]).astype(np.uint8), 1)
+    nr = np.maximum(np.concatenate([q["nr"] for q in parts]).astype(np.uint8), rn)
+    return PointCloud(
+        xyz=np.vstack([q["xyz"] for q in parts]),
+        classification=np.concatenate([q["cls"] for q in parts]).astype(np.uint8),
+        return_number=rn,
+        number_of_returns=nr,
+        crs=crs,
+        source=str(p),
+    )
 
 
 def _is_las(path: Path) -> bool:

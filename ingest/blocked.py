@@ -1,0 +1,393 @@
+"""Ingest of any size: the survey streamed into blocks of the output grid, each modelled with a
+buffer of its neighbours' points, in parallel, and stored as one version.
+
+1. **Scatter.** One pass over the input (a file or a catalog of tiles), chunk by chunk: each
+   point goes to a temporary file per block whose buffered box holds it. Memory stays bounded
+   by the chunk; disk holds the points about (1 + 2·buffer/block)² times.
+2. **Model.** Each block's points are modelled as one survey (:func:`ingest.pipeline.survey`):
+   ground, dense model, categories, reduction. Blocks are independent and run in as many
+   processes as there are cores.
+3. **Crop and merge.** A block keeps the tiles whose lower-left corner lies in its own square
+   (block edges are multiples of the 16 m lattice, so the tiles of every level nest), and the
+   kept points on or inside its square; points on a shared edge are kept once, with the level
+   bits of both sides.
+4. **Store** everything as one version, in one transaction.
+
+**Why the buffer is 64 m.** A point's ground label depends on the points within the ground
+filter's largest opening window (16 m radius) and on the surface the refinement passes rebuild
+from their neighbours; the dense model bridges holes (roofs, water) by a triangulation across
+them; the 16 m level samples a model smoothed over 2 m. Four windows (64 m) hold all of these
+for holes up to about 64 m across. What can still differ: object groups larger than the buffer
+(an embankment several hundred metres long is judged by its whole extent). The flat threshold
+is one for the whole survey, from the ground noise of its fullest block (a one-piece ingest
+measures it on all the ground, a little differently) unless one is given. How often tiles
+differ from a one-piece ingest of the same area is measured by ``tests/test_blocked.py`` and
+``benchmarks/blocked_ingest.py``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import tempfile
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+import laspy
+import numpy as np
+from numpy.typing import NDArray
+
+from ingest.catalog import Box, Catalog, is_catalog, open_catalog
+from ingest.ground import classify_ground
+from ingest.ground.tiling import available_cores, one_blas_thread_here
+from ingest.noise import ground_noise
+from ingest.pipeline import IngestOptions, flat_threshold_for, survey
+from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
+from tdb.categories import NO_DATA
+from tdb.classes import excluded
+from tdb.cloud import PointCloud
+from tdb.crs import as_crs
+from tdb.database import Database, Version, VersionInfo
+from tdb.errors import CRSError, InputError, Remedy, VersionExistsError
+from tdb.progress import Progress, or_silent
+from tdb.raster import Raster
+from tdb.stats import ReductionStats, VersionStats
+from tdb.tiles import LEVELS, SUBGRID
+from tdb.units import to_metres, units_of
+
+BLOCK = 512.0  # m: side of a block; a multiple of the coarsest tile (16 m)
+BUFFER = 64.0  # m: see the module's description
+CHUNK = 2_000_000  # points decoded at a time
+RECORD = np.dtype([("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("c", "u1"), ("r", "u1"), ("n", "u1")])
+
+
+@dataclass(frozen=True)
+class Blocking:
+    """How a survey is cut: blocks of ``block`` m with ``buffer`` m of their neighbours' points,
+    in ``workers`` processes (None: one per core)."""
+
+    block: float = BLOCK
+    buffer: float = BUFFER
+    workers: int | None = None
+
+    def __post_init__(self) -> None:
+        coarsest = max(LEVELS)
+        if self.block <= 0 or self.block % coarsest:
+            raise InputError(f"a block's side must be a positive multiple of {coarsest} m, got {self.block}")
+        if self.buffer < 0:
+            raise InputError(f"a block's buffer cannot be negative, got {self.buffer}")
+
+
+@dataclass(frozen=True)
+class _Block:
+    """One block's square (x0, y0, x1, y1) and the box its points are read from."""
+
+    core: Box
+    grown: Box
+
+
+@dataclass(frozen=True)
+class _Result:
+    """What one block contributes: its tiles per level, its kept points and its figures."""
+
+    levels: dict[int, tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]]
+    points: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]
+    reduction: ReductionStats
+    points_read: int
+    ground: int
+    excluded: int
+    noise: float
+    flat_threshold: float
+
+
+def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and how)
+    source: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
+    db: Database,
+    *,
+    version: str,
+    acquired: Any = None,
+    replace: bool = False,
+    options: IngestOptions | None = None,
+    blocking: Blocking | None = None,
+    progress: Progress | None = None,
+) -> Version:
+    """Ingest a LAS/LAZ file of any size, or a catalog of tiles (a directory, a glob pattern or a
+    list of files), block by block, as one version of ``db``.
+
+    Raises
+    ------
+    VersionExistsError
+        If ``version`` exists and ``replace`` is false (checked before any work).
+    CRSError
+        If the survey is not in projected coordinates in metres.
+    """
+    o, b = options or IngestOptions(), blocking or Blocking()
+    if not replace and any(v.name == version for v in db.versions()):
+        raise VersionExistsError(f"{db.name}: version {version!r} exists", remedy=Remedy.REPLACE)
+    report = or_silent(progress)
+    catalog = open_catalog(source if is_catalog(source) else [Path(str(source))])
+    crs = as_crs(o.crs) if o.crs is not None else catalog.crs
+    _check_metric(crs)
+    blocks = _blocks(catalog.bounds, b)
+    with tempfile.TemporaryDirectory(prefix="tdb-blocks-") as tmp:
+        files = _scatter(catalog, blocks, Path(tmp), report)
+        if o.flat_threshold is None:
+            o = dataclasses.replace(o, flat_threshold=_pilot_threshold(files, o, crs, report))
+        results = _model(blocks, files, o, b, crs, report)
+    return _store(
+        db,
+        version,
+        results,
+        acquired=acquired,
+        replace=replace,
+        options=o,
+        crs=crs,
+        source=catalog,
+        progress=report,
+    )
+
+
+def _check_metric(crs: Any) -> None:
+    units = units_of(crs)
+    if units is None:
+        raise CRSError("the survey names no coordinate system; give one", remedy=Remedy.GIVE_CRS)
+    if not units.metric:
+        raise CRSError(
+            f"a survey is ingested block by block only in projected coordinates in metres, not in "
+            f"{crs.name}; reproject it (or ingest it whole)"
+        )
+
+
+def _blocks(bounds: Box, b: Blocking) -> list[_Block]:
+    x0, y0, x1, y1 = bounds
+    xs = np.arange(np.floor(x0 / b.block) * b.block, x1 + 1e-9, b.block)
+    ys = np.arange(np.floor(y0 / b.block) * b.block, y1 + 1e-9, b.block)
+    out = []
+    for bx in xs:
+        for by in ys:
+            core = (float(bx), float(by), float(bx + b.block), float(by + b.block))
+            grown = (core[0] - b.buffer, core[1] - b.buffer, core[2] + b.buffer, core[3] + b.buffer)
+            out.append(_Block(core, grown))
+    return out
+
+
+def _scatter(catalog: Catalog, blocks: list[_Block], tmp: Path, report: Progress) -> list[Path]:
+    """One pass over the input: every point appended to the file of each block whose buffered
+    box holds it."""
+    files = [tmp / f"block{k}.bin" for k in range(len(blocks))]
+    grown = np.array([blk.grown for blk in blocks])
+    done, total = 0, catalog.points
+    report("reading", 0, total)
+    for f in catalog.files:
+        with laspy.open(f.path) as reader:
+            for chunk in reader.chunk_iterator(CHUNK):
+                rec = np.empty(len(chunk), RECORD)
+                rec["x"], rec["y"], rec["z"] = chunk.x, chunk.y, chunk.z
+                rec["c"], rec["r"], rec["n"] = chunk.classification, chunk.return_number, chunk.number_of_returns
+                for k in _touched(grown, f.bounds):
+                    x0, y0, x1, y1 = grown[k]
+                    inside = (rec["x"] >= x0) & (rec["x"] <= x1) & (rec["y"] >= y0) & (rec["y"] <= y1)
+                    if inside.any():
+                        with files[k].open("ab") as fh:
+                            rec[inside].tofile(fh)
+                done += len(chunk)
+                report("reading", done, total)
+    return files
+
+
+def _touched(grown: NDArray[np.float64], box: Box) -> NDArray[np.intp]:
+    return np.flatnonzero(
+        (grown[:, 0] <= box[2]) & (grown[:, 2] >= box[0]) & (grown[:, 1] <= box[3]) & (grown[:, 3] >= box[1])
+    )
+
+
+def _model(
+    blocks: list[_Block], files: list[Path], o: IngestOptions, b: Blocking, crs: Any, report: Progress
+) -> list[_Result]:
+    jobs = [(blk, path, o, crs) for blk, path in zip(blocks, files) if path.exists()]
+    workers = min(b.workers or available_cores(), len(jobs))
+    report("blocks", 0, len(jobs))
+    results: list[_Result] = []
+    if workers <= 1:
+        for k, job in enumerate(jobs, start=1):
+            results += [r for r in [_one_block(*job)] if r is not None]
+            report("blocks", k, len(jobs))
+        return results
+    # spawn: a forked child would inherit the parent's threads and locks
+    with ProcessPoolExecutor(workers, mp_context=get_context("spawn"), initializer=one_blas_thread_here) as pool:
+        for k, r in enumerate(pool.map(_one_block_args, jobs), start=1):
+            if r is not None:
+                results.append(r)
+            report("blocks", k, len(jobs))
+    return results
+
+
+def _pilot_threshold(files: list[Path], o: IngestOptions, crs: Any, report: Progress) -> float:
+    """The survey's flat threshold, from the ground noise of its fullest block: one threshold
+    for all blocks, so that a tile's category does not depend on the block it fell in."""
+    report("ground noise", 0, 1)
+    fullest = max((p for p in files if p.exists()), key=lambda p: p.stat().st_size)
+    cloud = _cloud(np.fromfile(fullest, RECORD), crs, str(fullest))
+    ground = classify_ground(to_metres(cloud), method=o.method, exclude=o.exclude)
+    report("ground noise", 1, 1)
+    return flat_threshold_for(ground_noise(cloud.xyz[ground]))
+
+
+def _cloud(rec: NDArray[Any], crs: Any, source: str) -> PointCloud:
+    rn = np.maximum(rec["r"], 1)
+    return PointCloud(
+        xyz=np.column_stack([rec["x"], rec["y"], rec["z"]]),
+        classification=rec["c"].copy(),
+        return_number=rn,
+        number_of_returns=np.maximum(rec["n"], rn),
+        crs=crs,
+        source=source,
+    )
+
+
+def _one_block_args(job: tuple[_Block, Path, IngestOptions, Any]) -> _Result | None:
+    return _one_block(*job)
+
+
+def _one_block(blk: _Block, path: Path, o: IngestOptions, crs: Any) -> _Result | None:
+    """Model one block from its points and keep what lies in its own square."""
+    rec = np.fromfile(path, RECORD)
+    x0, y0, x1, y1 = blk.core
+    own = (rec["x"] >= x0) & (rec["x"] < x1) & (rec["y"] >= y0) & (rec["y"] < y1)
+    if not own.any() or len(rec) < 3:
+        return None
+    cloud = _cloud(rec, crs, str(path))
+    s = survey(cloud, options=o)
+    m = s.model
+    levels = {}
+    for level, t in m.levels.items():
+        keep = (t.xg >= x0) & (t.xg < x1) & (t.yg >= y0) & (t.yg < y1)
+        levels[level] = LevelTiles(level, t.xg[keep], t.yg[keep], t.code[keep])
+    on = (m.x >= x0) & (m.x <= x1) & (m.y >= y0) & (m.y <= y1)
+    cropped = TerrainModel(levels, m.x[on], m.y[on], m.z[on], m.n[on])
+    # the error of the whole block's mesh at the block's own posts: a mesh of the cropped points
+    # alone would leave the posts beyond its hull out
+    core_dtm = _crop(s.dtm, blk.core)
+    whole = reduction_stats(core_dtm, m, n=SUBGRID)
+    reduction = dataclasses.replace(
+        whole,
+        dense_posts=int(np.isfinite(core_dtm.data).sum()),
+        kept_points=len(cropped.x),
+        tiles={lv: len(t.code) for lv, t in levels.items()},
+        no_data={lv: int((t.code == NO_DATA).sum()) for lv, t in levels.items()},
+    )
+    return _Result(
+        levels={lv: (t.xg, t.yg, t.code) for lv, t in levels.items()},
+        points=(m.x[on], m.y[on], m.z[on], m.n[on]),
+        reduction=reduction,
+        points_read=int(own.sum()),
+        ground=int((s.ground & own).sum()),
+        excluded=int((excluded(cloud.classification, o.exclude) & own).sum()),
+        noise=s.noise,
+        flat_threshold=s.flat_threshold,
+    )
+
+
+def _crop(dtm: Raster, box: Box) -> Raster:
+    """The posts of ``dtm`` whose centres lie in ``box`` (half-open)."""
+    xs, ys = dtm.centres()
+    cols = np.flatnonzero((xs >= box[0]) & (xs < box[2]))
+    rows = np.flatnonzero((ys >= box[1]) & (ys < box[3]))
+    if len(cols) == 0 or len(rows) == 0:
+        return Raster(np.full((1, 1), np.nan), box[0], box[3], dtm.cell, dtm.crs)
+    data = dtm.data[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+    return Raster(data, dtm.x0 + cols[0] * dtm.cell, dtm.y1 - rows[0] * dtm.cell, dtm.cell, dtm.crs)
+
+
+def _merge_points(
+    results: list[_Result],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
+    """All blocks' kept points; a point on a shared edge once, with the level bits of both sides."""
+    x = np.concatenate([r.points[0] for r in results])
+    y = np.concatenate([r.points[1] for r in results])
+    z = np.concatenate([r.points[2] for r in results])
+    n = np.concatenate([r.points[3] for r in results])
+    key = np.round(np.column_stack([x, y]) * 1000).astype(np.int64)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    mask = np.zeros(len(first), np.uint8)
+    np.bitwise_or.at(mask, inverse, n)
+    return x[first], y[first], z[first], mask
+
+
+def _store(  # noqa: PLR0913 (the version and what is recorded of it)
+    db: Database,
+    version: str,
+    results: list[_Result],
+    *,
+    acquired: Any,
+    replace: bool,
+    options: IngestOptions,
+    crs: Any,
+    source: Catalog,
+    progress: Progress,
+) -> Version:
+    if not results:
+        raise InputError("the survey holds no points to model")
+    levels = {
+        lv: tuple(np.concatenate([r.levels[lv][k] for r in results]) for k in range(3)) for lv in results[0].levels
+    }
+    posts = sum(r.reduction.dense_posts for r in results)
+    rmse = [r.reduction.rmse_m for r in results]
+    weights = [r.reduction.dense_posts for r in results]
+    known = [(e, w) for e, w in zip(rmse, weights) if e is not None]
+    points = _merge_points(results)
+    finest = min(levels)
+    reduction = ReductionStats(
+        dense_posts=posts,
+        kept_points=len(points[0]),
+        kept_level2=int(((points[3] & 1) > 0).sum()),
+        reduction_pct=round(100.0 * (1 - ((points[3] & 1) > 0).sum() / max(posts, 1)), 2),
+        rmse_m=round(float(np.sqrt(sum(e * e * w for e, w in known) / max(sum(w for _, w in known), 1))), 4)
+        if known
+        else None,
+        max_error_m=max((r.reduction.max_error_m or 0.0) for r in results),
+        tiles={lv: len(t[0]) for lv, t in levels.items()},
+        no_data={lv: sum(r.reduction.no_data.get(lv, 0) for r in results) for lv in levels},
+    )
+    read = sum(r.points_read for r in results)
+    noise = float(np.average([r.noise for r in results], weights=[r.points_read for r in results]))
+    thresholds = [r.flat_threshold for r in results]
+    bounds = source.bounds
+    stats = VersionStats(
+        reduction=reduction,
+        points=read,
+        ground_points=sum(r.ground for r in results),
+        excluded_points=sum(r.excluded for r in results),
+        noise_m=round(noise, 4),
+        flat_threshold_m=round(float(np.median(thresholds)), 3),
+        bounds=bounds,
+    )
+    params = {
+        "method": str(options.method),
+        "resolution": options.resolution,
+        "subgrid": SUBGRID,
+        "flat_threshold": float(np.median(thresholds)),
+        "exclude_classes": list(options.exclude),
+        "blocks": len(results),
+        "finest_level": finest,
+    }
+    return db.write_version(
+        version,
+        levels=levels,  # type: ignore[arg-type]
+        points=points,
+        info=VersionInfo(
+            acquired=acquired,
+            source=f"{len(source.files)} file(s): {source.files[0].path}"
+            + (" …" if len(source.files) > 1 else ""),
+            crs=None if crs is None else crs.to_wkt(),
+            params=params,
+            stats=stats,
+        ),
+        replace=replace,
+        progress=progress,
+    )

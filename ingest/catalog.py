@@ -1,0 +1,138 @@
+"""A catalog of LAS/LAZ tiles: one survey in many files, indexed by their headers.
+
+Like lidR's LAScatalog, a catalog reads only the headers up front (bounds, point counts, CRS),
+then the points of any box from the files that reach it, chunk by chunk. Tiles may overlap
+(their points in a box are merged); tiles in different coordinate systems are refused.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import laspy
+import numpy as np
+
+from ingest.readers import read_box
+from tdb.cloud import PointCloud
+from tdb.crs import describe
+from tdb.errors import CRSError, FormatError, InputError, TdbIOError
+
+Box = tuple[float, float, float, float]
+SUFFIXES = (".las", ".laz")
+
+
+@dataclass(frozen=True)
+class CatalogFile:
+    """One tile of a catalog: its path, header bounds (x0, y0, x1, y1) and point count."""
+
+    path: Path
+    bounds: Box
+    points: int
+
+
+@dataclass(frozen=True)
+class Catalog:
+    """The tiles of one survey and their shared coordinate system."""
+
+    files: tuple[CatalogFile, ...]
+    crs: Any
+
+    @property
+    def bounds(self) -> Box:
+        """The union of the tiles' header bounds."""
+        b = np.array([f.bounds for f in self.files])
+        return (float(b[:, 0].min()), float(b[:, 1].min()), float(b[:, 2].max()), float(b[:, 3].max()))
+
+    @property
+    def points(self) -> int:
+        return sum(f.points for f in self.files)
+
+    def read(self, box: Box) -> PointCloud:
+        """The points of every tile inside ``box`` (edges included), merged."""
+        parts = [read_box(f.path, box) for f in self.files if _overlaps(f.bounds, box)]
+        parts = [p for p in parts if len(p)]
+        if not parts:
+            empty = np.zeros(0, np.uint8)
+            return PointCloud(np.zeros((0, 3)), empty, empty.copy(), empty.copy(), crs=self.crs, source="catalog")
+        return PointCloud(
+            xyz=np.vstack([p.xyz for p in parts]),
+            classification=np.concatenate([p.classification for p in parts]),
+            return_number=np.concatenate([p.return_number for p in parts]),
+            number_of_returns=np.concatenate([p.number_of_returns for p in parts]),
+            crs=self.crs,
+            source=f"catalog of {len(self.files)} files",
+        )
+
+
+def open_catalog(source: str | os.PathLike[str] | Sequence[str | os.PathLike[str]]) -> Catalog:
+    """A catalog of a directory's LAS/LAZ files, a glob pattern's, or a list of files.
+
+    Raises
+    ------
+    InputError
+        If no LAS/LAZ file is found.
+    CRSError
+        If the tiles are in different coordinate systems.
+    TdbIOError, FormatError
+        If a file is missing or its header unreadable.
+    """
+    paths = _paths(source)
+    if not paths:
+        raise InputError(f"{source}: no LAS/LAZ files")
+    files, systems = [], []
+    for path in paths:
+        try:
+            with laspy.open(path) as reader:
+                h = reader.header
+                crs = h.parse_crs()
+                files.append(
+                    CatalogFile(
+                        path,
+                        (float(h.mins[0]), float(h.mins[1]), float(h.maxs[0]), float(h.maxs[1])),
+                        int(h.point_count),
+                    )
+                )
+        except OSError as exc:
+            raise TdbIOError(f"{path}: {exc.strerror or exc}") from None
+        except Exception as exc:  # laspy raises several types on a bad header
+            raise FormatError(f"{path}: not a readable LAS/LAZ file ({exc})") from None
+        systems.append(crs)
+    first = systems[0]
+    for path, crs in zip(paths[1:], systems[1:]):
+        same = (crs is None and first is None) or (
+            crs is not None and first is not None and crs.equals(first, ignore_axis_order=True)
+        )
+        if not same:
+            raise CRSError(
+                f"{path}: in {describe(crs)}, while {paths[0]} is in {describe(first)}; "
+                "a catalog's tiles must share one coordinate system"
+            )
+    return Catalog(tuple(files), first)
+
+
+def is_catalog(source: Any) -> bool:
+    """Whether ``source`` names several files: a directory, a glob pattern or a list."""
+    if isinstance(source, (list, tuple)):
+        return True
+    text = str(source)
+    return Path(text).is_dir() or any(c in text for c in "*?[")
+
+
+def _paths(source: str | os.PathLike[str] | Sequence[str | os.PathLike[str]]) -> list[Path]:
+    if not isinstance(source, (str, os.PathLike)):
+        return [Path(p) for p in source]
+    p = Path(source)
+    if p.is_dir():
+        return sorted(q for q in p.iterdir() if q.suffix.lower() in SUFFIXES)
+    if any(c in str(source) for c in "*?["):
+        return sorted(Path(q) for q in glob.glob(str(source)) if Path(q).suffix.lower() in SUFFIXES)
+    return [p]
+
+
+def _overlaps(a: Box, b: Box) -> bool:
+    return a[0] <= b[2] and b[0] <= a[2] and a[1] <= b[3] and b[1] <= a[3]

@@ -1,0 +1,89 @@
+"""Blocked ingest: the same model as a one-piece ingest of the same area, and catalogs of tiles."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import tdb
+from ingest.blocked import Blocking, ingest_blocked
+from ingest.catalog import open_catalog
+from ingest.pipeline import IngestOptions, ingest
+from ingest.readers import read, write_las
+from ingest.synth import make_scene, write_scene
+from tdb.errors import CRSError, InputError, TdbIOError
+from tdb.tiles import LEVELS
+
+
+def _codes(db, version, level):
+    xg, yg, code = db.tiles(version, level=level)
+    return dict(zip(zip(xg.tolist(), yg.tolist()), code.tolist()))
+
+
+@pytest.fixture(scope="module")
+def scene_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("blocked") / "s.laz"
+    write_scene(path, make_scene(seed=5, size=200), density=3, seed=5)
+    return path
+
+
+@pytest.mark.slow
+def test_blocks_give_the_one_piece_model(scene_file, tmp_path):
+    db = tdb.open(tmp_path / "b.tdb", create=True)
+    whole = ingest(scene_file, db, version="whole")
+    options = IngestOptions(flat_threshold=whole.params["flat_threshold"])
+    ingest_blocked(
+        scene_file, db, version="blocks", options=options, blocking=Blocking(block=96, buffer=64, workers=2)
+    )
+    for level in LEVELS:
+        a, b = _codes(db, "whole", level), _codes(db, "blocks", level)
+        assert set(a) == set(b), level  # every tile, once
+        same = np.mean([a[k] == b[k] for k in a])
+        assert same >= 0.995, (level, same)
+    pa, pb = db.points("whole", level=2), db.points("blocks", level=2)
+    assert abs(len(pb[0]) - len(pa[0])) <= 0.02 * len(pa[0])
+    ra, rb = db.version("whole").stats.reduction, db.version("blocks").stats.reduction
+    assert rb.dense_posts == ra.dense_posts
+    assert abs((rb.rmse_m or 0) - (ra.rmse_m or 0)) <= 0.005
+
+
+def test_a_catalog_of_tiles_is_one_survey(scene_file, tmp_path):
+    cloud = read(scene_file)
+    x0 = cloud.xyz[:, 0].min()
+    west = cloud.xyz[:, 0] < x0 + 100
+    for name, part in (("w.laz", west), ("e.laz", ~west)):
+        write_las(tmp_path / name, cloud.take(np.flatnonzero(part)))
+    catalog = open_catalog(tmp_path)
+    assert len(catalog.files) == 2 and catalog.points == len(cloud)
+    box = (x0 + 90, cloud.xyz[:, 1].min(), x0 + 110, cloud.xyz[:, 1].min() + 50)
+    inside = (
+        (cloud.xyz[:, 0] >= box[0])
+        & (cloud.xyz[:, 0] <= box[2])
+        & (cloud.xyz[:, 1] >= box[1])
+        & (cloud.xyz[:, 1] <= box[3])
+    )
+    assert len(catalog.read(box)) == int(inside.sum())  # across the seam between the two files
+    db = tdb.open(tmp_path / "c.tdb", create=True)
+    v = ingest_blocked(str(tmp_path / "*.laz"), db, version="cat", blocking=Blocking(block=128, workers=1))
+    assert v.stats.points == len(cloud)
+    assert v.stats.reduction.tiles[2] == 100 * 100
+
+
+def test_catalog_tiles_in_different_systems_are_refused(scene_file, tmp_path):
+    import dataclasses
+
+    from pyproj import CRS
+
+    cloud = read(scene_file)
+    write_las(tmp_path / "a.laz", cloud)
+    write_las(tmp_path / "b.laz", dataclasses.replace(cloud, crs=CRS.from_epsg(32633)))
+    with pytest.raises(CRSError, match="share one coordinate system"):
+        open_catalog(tmp_path)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(InputError, match="no LAS/LAZ"):
+        open_catalog(empty)
+    with pytest.raises(TdbIOError):
+        open_catalog(tmp_path / "nothing-here.laz")
+    with pytest.raises(InputError, match="multiple of 16"):
+        Blocking(block=100)
