@@ -22,6 +22,13 @@ def _date(_ctx: click.Context, _param: click.Parameter, value: str | None) -> dt
 
 @click.command("ingest")
 @click.argument("cloud", type=click.Path(path_type=Path))
+@click.option(
+    "--block",
+    type=float,
+    help="Ingest block by block, blocks of this many metres (a multiple of 16), in parallel: for surveys "
+    "too large to model whole. A directory or a glob of tiles is always ingested so [default: 512].",
+)
+@click.option("--workers", type=int, help="Processes for a blocked ingest [default: one per core].")
 @click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
 @click.option("--version", "version", required=True, help="Name of this survey in the database.")
 @click.option("--date", callback=_date, help="Acquisition date, YYYY-MM-DD.")
@@ -46,6 +53,8 @@ def command(
     flat_threshold: float | None,
     replace: bool,
     assume_metres: bool,
+    block: float | None,
+    workers: int | None,
     crs: str | None,
     labels: str,
     exclude: tuple[int, ...],
@@ -55,34 +64,48 @@ def command(
 
     A failure or interruption leaves the database as it was.
 
+    CLOUD is a LAS/LAZ or text file, or a catalog of LAS/LAZ tiles: a directory or a quoted
+    glob pattern.
+
     \b
     Examples:
       tdb ingest survey_2020.laz --db park.tdb --version 2020 --date 2020-04-02
+      tdb ingest tiles/ --db county.tdb --version 2024            # a directory of tiles, block by block
+      tdb ingest 'tiles/*.laz' --db county.tdb --version 2024 --block 1024 --workers 2
       tdb ingest survey_2024.laz --db park.tdb --version 2024 --replace
       tdb ingest lidarhd.laz --db ign.tdb --version 2023 --exclude-classes 7,18,65
     """
     import tdb
+    from ingest.blocked import Blocking, ingest_blocked
+    from ingest.catalog import is_catalog
     from ingest.pipeline import IngestOptions, ingest
     from tdb.cli.progress import Bars
 
+    options = IngestOptions(
+        crs=crs,
+        labels=LabelScheme(labels),
+        assume_metres=assume_metres,
+        method=GroundMethod(method),
+        resolution=resolution,
+        flat_threshold=flat_threshold,
+        exclude=exclude,
+    )
+    blocked = block is not None or is_catalog(cloud)
     with tdb.open(db_path, create=True) as db, Bars(unit="step") as bars:
-        v = ingest(
-            cloud,
-            db,
-            version=version,
-            acquired=date,
-            replace=replace,
-            options=IngestOptions(
-                crs=crs,
-                labels=LabelScheme(labels),
-                assume_metres=assume_metres,
-                method=GroundMethod(method),
-                resolution=resolution,
-                flat_threshold=flat_threshold,
-                exclude=exclude,
-            ),
-            progress=bars,
-        )
+        if blocked:
+            blocking = Blocking(**({"block": block} if block else {}), workers=workers)
+            v = ingest_blocked(
+                str(cloud),
+                db,
+                version=version,
+                acquired=date,
+                replace=replace,
+                options=options,
+                blocking=blocking,
+                progress=bars,
+            )
+        else:
+            v = ingest(cloud, db, version=version, acquired=date, replace=replace, options=options, progress=bars)
     r = v.stats.reduction
     click.echo(
         f"version {v.name!r} in {db_path}: {r.tiles.get(2, 0):,} tiles of 2 m, {r.kept_points:,} points kept "
