@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from queries.centreline import elongation
-from queries.coregister import Shift, shifted_lattice
+from queries.coregister import Shift, shifted_lattice, site
 from queries.filters import builtin_filters
 from queries.grids import shared_tiles
 from queries.match import REACH_TILES, match_tiles
@@ -248,7 +248,7 @@ def detect(
     CRSError
         If the versions' horizontal coordinate systems differ.
     """
-    check_same_horizontal(db.crs(before), db.crs(after), names=(before, after))
+    check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=site(db, before))
     xg, yg, c1, c2 = shared_tiles(db, before, after, level=level, bbox=bbox)
     if len(xg) == 0:
         return []

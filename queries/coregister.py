@@ -136,12 +136,18 @@ def coregister(
     InputError
         If they share no tiles there.
     """
-    check_same_horizontal(db.crs(before), db.crs(after), names=(before, after))
+    check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=site(db, before))
     m = parse(Coregistration, method)
     if m is Coregistration.NONE:
         return Shift(method=m)
     first, second = surface_grids(db, before, after, level=level, bbox=bbox, max_cells=GRID_CELLS, fit=True)
     return estimate_shift(first, second, method=m)
+
+
+def site(db: Database, version: str) -> tuple[float, float] | None:
+    """The centre of a version's extent, where two coordinate systems are compared."""
+    b = db.version(version).stats.bounds
+    return None if b is None else ((b[0] + b[2]) / 2, (b[1] + b[3]) / 2)
 
 
 def shifted_lattice(lattice: NodeLattice, shift: Shift) -> NodeLattice:

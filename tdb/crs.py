@@ -53,20 +53,52 @@ def describe(crs: pyproj.CRS | None) -> str:
     return f"{crs.name} (EPSG:{code})" if code else crs.name
 
 
-def check_same_horizontal(a: pyproj.CRS | None, b: pyproj.CRS | None, *, names: tuple[str, str]) -> None:
-    """Refuse to compare two surveys whose horizontal coordinate systems differ.
+NEAR = 2.0  # m: two realisations of a datum this close at the site are compared as they are
+
+
+def horizontal_offset(a: pyproj.CRS, b: pyproj.CRS, at: tuple[float, float]) -> float:
+    """How far (m) the point ``at`` of ``a`` lies from the same coordinates in ``b``, by the best
+    transformation pyproj has offline (inf where there is none)."""
+    try:
+        t = pyproj.Transformer.from_crs(horizontal_part(a), horizontal_part(b), always_xy=True)
+        x, y = t.transform(*at)
+    except pyproj.exceptions.ProjError:
+        return float("inf")
+    d = float(((x - at[0]) ** 2 + (y - at[1]) ** 2) ** 0.5)
+    return d if d == d else float("inf")  # NaN: no transformation
+
+
+def check_same_horizontal(
+    a: pyproj.CRS | None,
+    b: pyproj.CRS | None,
+    *,
+    names: tuple[str, str],
+    at: tuple[float, float] | None = None,
+) -> str | None:
+    """Refuse to compare two surveys whose horizontal coordinate systems differ by more than
+    :data:`NEAR` at the site ``at``; say so where they differ by less (two realisations of one
+    datum, such as NAD83 and WGS 84 on the same UTM zone): co-registration finds the rest.
+
+    Returns a note for a person, or None where the systems are the same.
 
     Raises
     ------
     CRSError
-        If both declare a horizontal CRS and they are not the same one.
+        If both declare a horizontal CRS and they are neither the same nor near at the site.
     """
     ha, hb = horizontal_part(a), horizontal_part(b)
-    if ha is not None and hb is not None and not ha.equals(hb, ignore_axis_order=True):
-        raise CRSError(
-            f"versions {names[0]!r} and {names[1]!r} are in different horizontal coordinate systems "
-            f"({describe(ha)}; {describe(hb)}); ingest one of them again in the other's"
+    if ha is None or hb is None or ha.equals(hb, ignore_axis_order=True):
+        return None
+    offset = horizontal_offset(ha, hb, at) if at is not None else float("inf")
+    if offset <= NEAR:
+        return (
+            f"versions {names[0]!r} and {names[1]!r} are in {describe(ha)} and {describe(hb)}, "
+            f"{offset:.2f} m apart here by pyproj's transformation; compared as they are"
         )
+    raise CRSError(
+        f"versions {names[0]!r} and {names[1]!r} are in different horizontal coordinate systems "
+        f"({describe(ha)}; {describe(hb)}); ingest one of them again in the other's"
+    )
 
 
 def height_reference_note(a: pyproj.CRS | None, b: pyproj.CRS | None, *, names: tuple[str, str]) -> str | None:

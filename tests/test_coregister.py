@@ -193,3 +193,15 @@ def shapely_shape(f):
     import shapely
 
     return shapely.geometry.shape(f["geometry"])
+
+
+def test_two_realisations_of_a_datum_are_compared_and_other_zones_refused():
+    from pyproj import CRS
+
+    from tdb.crs import check_same_horizontal
+
+    at = (630000.0, 4835000.0)
+    note = check_same_horizontal(CRS.from_epsg(32617), CRS.from_epsg(26917), names=("2015", "2019"), at=at)
+    assert note and "compared as they are" in note
+    with pytest.raises(CRSError, match="different horizontal"):
+        check_same_horizontal(CRS.from_epsg(32617), CRS.from_epsg(32618), names=("a", "b"), at=at)

@@ -8,7 +8,7 @@ import click
 
 from tdb.cli.options import bbox_option, level_option
 from tdb.cli.output import check_output, emit, output_options
-from tdb.crs import height_reference_note
+from tdb.crs import check_same_horizontal, height_reference_note
 from tdb.options import Coregistration
 
 PICTURE = 4_000_000  # most cells of a change map's background
@@ -66,10 +66,14 @@ def command(
     import tdb
     from queries.changes import detect, level_of_detection
     from queries.coregister import coregister as align
+    from queries.coregister import site
     from queries.dod import describe, difference_of_surfaces
 
     check_output(fmt, out, layer=layer, append=append)
     with tdb.open(db_path) as db:
+        plan = check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=site(db, before))
+        if plan:
+            click.echo(f"note: {plan}; co-registration finds what is left", err=True)
         note = height_reference_note(db.crs(before), db.crs(after), names=(before, after))
         if note:
             click.echo(f"note: {note}; co-registration on stable ground aligns them", err=True)
