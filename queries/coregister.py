@@ -6,13 +6,16 @@ tile of the overlap moves by the offset and the whole site reads as changed. So 
 surface is first aligned to the earlier one on the terrain that did not change:
 
 - **Stable terrain** is where the two surfaces agree up to their noise: cells whose difference
-  lies within 3 NMAD of the median difference, found again after every step (so that real
-  changes, vegetation read as ground and water drop out as outliers).
+  lies within 3 standard deviations of the densest difference (:func:`stable_cells`), found
+  again after every step, so that real changes, vegetation read as ground and water drop out
+  even where they make most of the area and pull one way.
 - **Horizontal shift** by Nuth & Kääb (2011): on a slope of inclination α and aspect ψ, a shift
   of length a towards b makes dh / tan α = a · cos(b − ψ) + c. Fitted by least squares on the
   stable cells with slopes of 3–70°, the later surface resampled at the shift found, and
   iterated until the step is under 1 cm.
-- **Vertical shift**: the median of the stable differences after the horizontal shift.
+- **Vertical shift**: the densest stable difference (half-sample mode) after the horizontal
+  shift: where vegetation taken for ground lifts one survey over part of the site, the median
+  follows it and the mode stays on the ground both surveys saw.
 
 Each estimate carries its uncertainty. Errors of LiDAR ground models are correlated over
 distances of about :data:`CORRELATION` m (strips, the ground filter's choices), so the
@@ -206,20 +209,41 @@ def resample(data: NDArray[np.float64], di: float, dj: float, *, order: int = 1)
     return np.where(weight > 1 - 1e-6, values, np.nan)
 
 
+def half_sample_mode(values: NDArray[np.float64]) -> float:
+    """The densest value (Bickel's half-sample mode): the shortest interval holding half the
+    values, halved again and again. Unlike the median it stays on the values that agree when a
+    large share of the others is pulled to one side."""
+    v = np.sort(values[np.isfinite(values)])
+    if len(v) == 0:
+        return float("nan")
+    while len(v) > 3:
+        half = (len(v) + 1) // 2
+        start = int(np.argmin(v[half - 1 :] - v[: len(v) - half + 1]))
+        v = v[start : start + half]
+    return float(np.mean(v))
+
+
 def stable_cells(dh: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """Cells whose difference lies within :data:`OUTLIER_NMADS` NMADs of the median, found
-    again until the set settles (at most five rounds)."""
-    stable = np.isfinite(dh)
-    for _ in range(5):
-        values = dh[stable]
-        if len(values) < MIN_STABLE:
-            return stable
-        centre, spread = float(np.median(values)), nmad(values)
-        now = np.isfinite(dh) & (np.abs(dh - centre) <= OUTLIER_NMADS * max(spread, 1e-3))
-        if np.array_equal(now, stable):
+    """Cells whose difference lies within :data:`OUTLIER_NMADS` standard deviations of the
+    densest difference. Ground that did not change agrees between two surveys; changes, and
+    vegetation one survey took for ground, pull the rest to either side, often mostly to one.
+    So the centre is the half-sample mode, and the spread is found by clipping at 3 σ about it
+    and measuring again (NMAD) until it settles, starting from the quarter of the cells
+    closest to the centre (the 25th percentile of |dh − centre| is 0.3186 σ for normal errors)."""
+    finite = np.isfinite(dh)
+    values = dh[finite]
+    if len(values) < MIN_STABLE:
+        return finite
+    centre = half_sample_mode(values)
+    deviation = np.abs(values - centre)
+    spread = max(float(np.percentile(deviation, 25)) / 0.3186, 1e-3)
+    for _ in range(MAX_ITERATIONS):
+        inside = deviation <= OUTLIER_NMADS * spread
+        now = max(1.4826 * float(np.median(deviation[inside])), 1e-3)
+        if abs(now - spread) < 1e-4:
             break
-        stable = now
-    return stable
+        spread = now
+    return finite & (np.abs(dh - centre) <= OUTLIER_NMADS * spread)
 
 
 def estimate_shift(before: Raster, after: Raster, *, method: str | Coregistration = Coregistration.AUTO) -> Shift:
@@ -248,7 +272,7 @@ def estimate_shift(before: Raster, after: Raster, *, method: str | Coregistratio
     share = len(values) / max(int(np.isfinite(dh).sum()), 1)
     if len(values) < MIN_STABLE:
         return Shift(dx=dx, dy=dy, sigma_xy=sigma_xy, stable_share=share, method=m)
-    dz = float(np.median(values))
+    dz = half_sample_mode(values)  # not the median: see stable_cells
     sigma_z = nmad(values) / np.sqrt(_independent(len(values), cell))
     vertical = m is not Coregistration.AUTO or abs(dz) > SIGNIFICANCE * sigma_z
     return Shift(

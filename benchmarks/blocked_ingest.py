@@ -1,0 +1,112 @@
+"""Ingest of a large file whole and block by block: speed, memory, and whether the two agree.
+
+One process per run, so that each run's peak memory is its own (a blocked run's workers
+counted apart). The blocked run is compared with the whole one tile by tile at every level,
+once with the flat threshold measured its own way (from the fullest block) and once with the
+whole run's, which isolates what blocking itself changes.
+    python -m benchmarks.blocked_ingest [--file isprs/FSite5_orig-utm.laz] [--block 512]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import tdb
+from benchmarks.common import DATA, save
+from tdb.tiles import LEVELS
+
+
+def _run(kind: str, src: str, db_path: str, block: float, threshold: float | None) -> None:
+    """One ingest in this process; prints its seconds and peak memory as JSON."""
+    from ingest.blocked import Blocking, ingest_blocked
+    from ingest.pipeline import IngestOptions, ingest
+
+    db = tdb.open(db_path, create=True)
+    options = IngestOptions(flat_threshold=threshold)
+    t0 = time.perf_counter()
+    if kind == "whole":
+        ingest(src, db, version=kind, options=options)
+    elif kind == "read":
+        from ingest.readers import read
+
+        read(src)
+    else:
+        ingest_blocked(src, db, version=kind, options=options, blocking=Blocking(block=block))
+    seconds = time.perf_counter() - t0
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    workers = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    print(json.dumps({"seconds": seconds, "peak_rss_mib": own, "worker_peak_rss_mib": workers}))
+
+
+def _agreement(db: Any, a: str, b: str) -> dict[str, float]:
+    out = {}
+    for level in LEVELS:
+        xa, ya, ca = db.tiles(a, level=level)
+        xb, yb, cb = db.tiles(b, level=level)
+        ka = dict(zip(zip(xa.tolist(), ya.tolist()), ca.tolist()))
+        kb = dict(zip(zip(xb.tolist(), yb.tolist()), cb.tolist()))
+        out[f"same_{level}m_pct"] = 100 * float(np.mean([ka[k] == kb.get(k) for k in ka]))
+    out["kept_2m_points_ratio"] = len(db.points(b, level=2)[0]) / max(len(db.points(a, level=2)[0]), 1)
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--file", default="isprs/FSite5_orig-utm.laz")
+    parser.add_argument("--block", type=float, default=512.0)
+    parser.add_argument("--run", nargs=5, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.run:
+        kind, src, db_path, block, threshold = args.run
+        _run(kind, src, db_path, float(block), None if threshold == "-" else float(threshold))
+        return
+    src = str(DATA / args.file)
+
+    def child(kind: str, db_path: str, threshold: float | None = None) -> dict[str, float]:
+        cmd = [sys.executable, "-m", "benchmarks.blocked_ingest", "--run", kind, src, db_path, str(args.block)]
+        out = subprocess.run(
+            [*cmd, "-" if threshold is None else repr(threshold)], check=True, capture_output=True
+        )
+        return dict(json.loads(out.stdout.decode().strip().splitlines()[-1]))
+
+    with tempfile.TemporaryDirectory() as tmp:
+        db_path = str(Path(tmp) / "b.tdb")
+        runs = {"read": child("read", db_path), "whole": child("whole", db_path)}
+        db = tdb.open(db_path)
+        whole = db.version("whole")
+        runs["blocks"] = child("blocks", db_path)
+        runs["blocks_same_threshold"] = child("blocks_same_threshold", db_path, whole.params["flat_threshold"])
+        db = tdb.open(db_path)
+        b = whole.stats.bounds or (0.0, 0.0, 0.0, 0.0)
+        km2 = (b[2] - b[0]) * (b[3] - b[1]) / 1e6
+        points = whole.stats.points
+        for r in runs.values():
+            r["points_per_s"] = points / r["seconds"]
+            r["s_per_km2"] = r["seconds"] / km2
+        doc = {
+            "file": args.file,
+            "points": points,
+            "km2": km2,
+            "block_m": args.block,
+            "blocks": db.version("blocks").params.get("blocks"),
+            "runs": runs,
+            "agreement": _agreement(db, "whole", "blocks"),
+            "agreement_same_threshold": _agreement(db, "whole", "blocks_same_threshold"),
+            "rmse_m": {v: db.version(v).stats.reduction.rmse_m for v in ("whole", "blocks")},
+        }
+    print(doc)
+    print(save("blocked_ingest", doc))
+
+
+if __name__ == "__main__":
+    main()
