@@ -52,6 +52,7 @@ STEP = 0.01  # m: the horizontal iteration stops when its step is shorter
 MAX_ITERATIONS = 10
 MIN_STABLE = 50  # stable cells needed for any estimate
 GRID_CELLS = 4_000_000  # most cells of the grid the shift is estimated on (coarser over large areas)
+GRID_CELL = 1.0  # m: the finest cell it is estimated on; decimetre shifts need no finer grid
 
 
 @dataclass(frozen=True)
@@ -143,8 +144,16 @@ def coregister(
     m = parse(Coregistration, method)
     if m is Coregistration.NONE:
         return Shift(method=m)
-    first, second = surface_grids(db, before, after, level=level, bbox=bbox, max_cells=GRID_CELLS, fit=True)
+    extent = bbox or _extent(db, before)
+    cells = GRID_CELLS if extent is None else (extent[2] - extent[0]) * (extent[3] - extent[1]) / GRID_CELL**2
+    first, second = surface_grids(
+        db, before, after, level=level, bbox=bbox, max_cells=int(min(GRID_CELLS, max(cells, 1))), fit=True
+    )
     return estimate_shift(first, second, method=m)
+
+
+def _extent(db: Database, version: str) -> Box | None:
+    return db.version(version).stats.bounds
 
 
 def site(db: Database, version: str) -> tuple[float, float] | None:
@@ -199,14 +208,35 @@ def nmad(values: NDArray[np.float64]) -> float:
 def resample(data: NDArray[np.float64], di: float, dj: float, *, order: int = 1) -> NDArray[np.float64]:
     """``data`` read at (column + di, row + dj), bilinearly (``order`` 1) or by cubic splines
     (3); NaN where a neighbour is NaN or outside."""
+    if order == 1:
+        return _shift_bilinear(data, di, dj)
     rows, cols = data.shape
     jj, ii = np.mgrid[0:rows, 0:cols].astype(np.float64)
     valid = np.isfinite(data)
-    filled = fill_nearest(data) if order > 1 and valid.any() and not valid.all() else np.where(valid, data, 0.0)
+    filled = fill_nearest(data) if valid.any() and not valid.all() else np.where(valid, data, 0.0)
     coords = np.array([jj + dj, ii + di])
     values = ndimage.map_coordinates(filled, coords, order=order, mode="nearest")
     weight = ndimage.map_coordinates(valid.astype(np.float64), coords, order=1, mode="constant", cval=0.0)
     return np.where(weight > 1 - 1e-6, values, np.nan)
+
+
+def _shift_bilinear(data: NDArray[np.float64], di: float, dj: float) -> NDArray[np.float64]:
+    """The same shift for every cell: four shifted copies weighted, no coordinate arrays."""
+    rows, cols = data.shape
+    ki, kj = int(np.floor(di)), int(np.floor(dj))
+    fi, fj = di - ki, dj - kj
+    pad = max(abs(ki), abs(kj)) + 2
+    padded = np.pad(data, pad, constant_values=np.nan)
+
+    def at(a: int, b: int) -> NDArray[np.float64]:
+        r0, c0 = pad + kj + a, pad + ki + b
+        return padded[r0 : r0 + rows, c0 : c0 + cols]
+
+    out = np.zeros((rows, cols))
+    for a, b, w in ((0, 0, (1 - fi) * (1 - fj)), (0, 1, fi * (1 - fj)), (1, 0, (1 - fi) * fj), (1, 1, fi * fj)):
+        if w > 1e-12:
+            out += w * at(a, b)  # NaN anywhere it is read
+    return out
 
 
 def half_sample_mode(values: NDArray[np.float64]) -> float:
