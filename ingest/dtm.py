@@ -19,6 +19,17 @@ from tdb.tin import surface_height, triangulate
 DEFAULT_RESOLUTION = 0.5
 
 
+def lowest_per_position(xyz: NDArray[np.float64], *, precision: float = 1e-3) -> NDArray[np.float64]:
+    """The points with one per plan position (to ``precision`` m): the lowest. Two returns of one
+    pulse often share a position; a triangulation keeps one of them by the points' order, so
+    the surface would depend on how the points were read (and on which block they fell in)."""
+    key = np.round(xyz[:, :2] / precision).astype(np.int64)
+    order = np.lexsort((xyz[:, 2], key[:, 1], key[:, 0]))
+    k = key[order]
+    first = np.r_[True, (k[1:] != k[:-1]).any(axis=1)]
+    return xyz[order[first]]
+
+
 def dense_model(
     ground_xyz: NDArray[np.float64],
     *,
@@ -39,7 +50,7 @@ def dense_model(
     """
     if resolution <= 0:
         raise InputError(f"resolution must be positive, got {resolution}")
-    xyz = np.asarray(ground_xyz, float)
+    xyz = lowest_per_position(np.asarray(ground_xyz, float))
     tri = triangulate(xyz[:, :2])
     if bounds is None:
         lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)

@@ -105,8 +105,8 @@ class Shift:
             "sigma_z": r(self.sigma_z),
             "nmad": r(self.nmad),
             "stable_share": r(self.stable_share),
-            "horizontal_applied": self.horizontal,
-            "vertical_applied": self.vertical,
+            "horizontal_applied": bool(self.horizontal),
+            "vertical_applied": bool(self.vertical),
         }
 
     def describe(self) -> str:
@@ -314,8 +314,8 @@ def estimate_shift(before: Raster, after: Raster, *, method: str | Coregistratio
         nmad=nmad(values),
         stable_share=share,
         method=m,
-        horizontal=horizontal,
-        vertical=vertical,
+        horizontal=bool(horizontal),
+        vertical=bool(vertical),
     )
 
 
