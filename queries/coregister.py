@@ -20,7 +20,9 @@ surface is first aligned to the earlier one on the terrain that did not change:
 Each estimate carries its uncertainty. Errors of LiDAR ground models are correlated over
 distances of about :data:`CORRELATION` m (strips, the ground filter's choices), so the
 stable cells count as one independent sample per CORRELATION² m², not one per cell.
-``auto`` applies a shift only where it exceeds :data:`SIGNIFICANCE` times its uncertainty.
+``auto`` applies a shift only where it exceeds :data:`SIGNIFICANCE` times its uncertainty and
+moves heights by more than the surveys' own ground noise (a smaller one changes nothing a
+comparison can see).
 
 The shift (dx, dy, dz) is the later survey's offset: ``after(x + dx, y + dy) − dz`` is
 ``before(x, y)`` on stable ground.
@@ -149,7 +151,13 @@ def coregister(
     first, second = surface_grids(
         db, before, after, level=level, bbox=bbox, max_cells=int(min(GRID_CELLS, max(cells, 1))), fit=True
     )
-    return estimate_shift(first, second, method=m)
+    return estimate_shift(first, second, method=m, noise=_noise(db, before, after))
+
+
+def _noise(db: Database, before: str, after: str) -> float:
+    """The two surveys' ground noise together (m): a shift under it changes nothing."""
+    terms = [db.version(v).stats.noise_m for v in (before, after)]
+    return float(np.sqrt(sum(t * t for t in terms if t is not None)))
 
 
 def _extent(db: Database, version: str) -> Box | None:
@@ -276,12 +284,16 @@ def stable_cells(dh: NDArray[np.float64]) -> NDArray[np.bool_]:
     return finite & (np.abs(dh - centre) <= OUTLIER_NMADS * spread)
 
 
-def estimate_shift(before: Raster, after: Raster, *, method: str | Coregistration = Coregistration.AUTO) -> Shift:
+def estimate_shift(
+    before: Raster, after: Raster, *, method: str | Coregistration = Coregistration.AUTO, noise: float = 0.0
+) -> Shift:
     """The shift that aligns ``after`` to ``before`` (two surfaces on one grid), by ``method``.
 
     ``none`` estimates nothing; ``vertical`` the vertical shift alone; ``nuth-kaab`` both,
-    applied whatever their size; ``auto`` both, each applied only where significant. The
-    estimates are reported whether they apply or not.
+    applied whatever their size; ``auto`` both, each applied only where it is significant
+    (beyond :data:`SIGNIFICANCE` standard errors) and material: where it moves heights by more
+    than ``noise`` (m, the surveys' own ground noise), a horizontal shift through the terrain's
+    median slope. The estimates are reported whether they apply or not.
     """
     m = parse(Coregistration, method)
     if m is Coregistration.NONE:
@@ -292,8 +304,14 @@ def estimate_shift(before: Raster, after: Raster, *, method: str | Coregistratio
     if m is not Coregistration.VERTICAL:
         dx, dy, sigma_xy = _nuth_kaab(before.data, after.data, cell)
     found = bool(np.isfinite(sigma_xy))
+    length = float(np.hypot(dx, dy))
     horizontal = found and (
-        m is Coregistration.NUTH_KAAB or (m is Coregistration.AUTO and np.hypot(dx, dy) > SIGNIFICANCE * sigma_xy)
+        m is Coregistration.NUTH_KAAB
+        or (
+            m is Coregistration.AUTO
+            and length > SIGNIFICANCE * sigma_xy
+            and length * _median_slope(before.data, cell) > noise
+        )
     )
     aligned = resample(after.data, dx / cell, -dy / cell) if horizontal else after.data
     dh = aligned - before.data
@@ -304,7 +322,7 @@ def estimate_shift(before: Raster, after: Raster, *, method: str | Coregistratio
         return Shift(dx=dx, dy=dy, sigma_xy=sigma_xy, stable_share=share, method=m)
     dz = half_sample_mode(values)  # not the median: see stable_cells
     sigma_z = nmad(values) / np.sqrt(_independent(len(values), cell))
-    vertical = m is not Coregistration.AUTO or abs(dz) > SIGNIFICANCE * sigma_z
+    vertical = m is not Coregistration.AUTO or (abs(dz) > SIGNIFICANCE * sigma_z and abs(dz) > noise)
     return Shift(
         dx=dx,
         dy=dy,
@@ -317,6 +335,13 @@ def estimate_shift(before: Raster, after: Raster, *, method: str | Coregistratio
         horizontal=bool(horizontal),
         vertical=bool(vertical),
     )
+
+
+def _median_slope(surface: NDArray[np.float64], cell: float) -> float:
+    """The median inclination (rise over run) of a surface."""
+    d_row, d_col = np.gradient(surface, cell)
+    tan = np.hypot(np.asarray(d_row), np.asarray(d_col))
+    return float(np.median(tan[np.isfinite(tan)])) if np.isfinite(tan).any() else 0.0
 
 
 def _independent(cells: int, cell: float) -> float:

@@ -59,13 +59,21 @@ def test_a_known_offset_is_recovered(dx, dy, dz, seed):
 
 
 def test_auto_applies_nothing_without_an_offset_and_all_with_one():
+    noise = 0.03 * np.sqrt(2)  # both surfaces' own
     before, after = grids(0.0, 0.0, 0.0, seed=3)
-    s = estimate_shift(before, after, method=Coregistration.AUTO)
+    s = estimate_shift(before, after, method=Coregistration.AUTO, noise=noise)
     assert not s.horizontal and not s.vertical
     before, after = grids(0.6, -0.4, 0.25, seed=3)
-    s = estimate_shift(before, after, method=Coregistration.AUTO)
+    s = estimate_shift(before, after, method=Coregistration.AUTO, noise=noise)
     assert s.horizontal and s.vertical
     assert abs(s.dx - 0.6) <= 0.1 and abs(s.dz - 0.25) <= 0.02
+
+
+def test_a_shift_under_the_noise_is_estimated_but_not_applied():
+    before, after = grids(0.0, 0.0, 0.01, seed=4, noise=0.005)
+    s = estimate_shift(before, after, method=Coregistration.AUTO, noise=0.03)
+    assert abs(s.dz - 0.01) <= 0.003 and not s.vertical  # significant, but under the noise
+    assert estimate_shift(before, after, method=Coregistration.AUTO, noise=0.0).vertical
 
 
 def test_vertical_only_leaves_the_plan_alone_and_none_does_nothing():
