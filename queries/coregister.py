@@ -292,8 +292,8 @@ def estimate_shift(
     ``none`` estimates nothing; ``vertical`` the vertical shift alone; ``nuth-kaab`` both,
     applied whatever their size; ``auto`` both, each applied only where it is significant
     (beyond :data:`SIGNIFICANCE` standard errors) and material: where it moves heights by more
-    than ``noise`` (m, the surveys' own ground noise), a horizontal shift through the terrain's
-    median slope. The estimates are reported whether they apply or not.
+    than ``noise`` (m, the surveys' own ground noise), a horizontal shift through the slope of
+    the terrain's steepest tenth. The estimates are reported whether they apply or not.
     """
     m = parse(Coregistration, method)
     if m is Coregistration.NONE:
@@ -310,7 +310,7 @@ def estimate_shift(
         or (
             m is Coregistration.AUTO
             and length > SIGNIFICANCE * sigma_xy
-            and length * _median_slope(before.data, cell) > noise
+            and length * _steep_slope(before.data, cell) > noise
         )
     )
     aligned = resample(after.data, dx / cell, -dy / cell) if horizontal else after.data
@@ -337,11 +337,16 @@ def estimate_shift(
     )
 
 
-def _median_slope(surface: NDArray[np.float64], cell: float) -> float:
-    """The median inclination (rise over run) of a surface."""
+STEEP = 90  # percentile: a horizontal shift shows on the steepest tenth of the terrain
+
+
+def _steep_slope(surface: NDArray[np.float64], cell: float) -> float:
+    """The inclination (rise over run) of the steep part of a surface: a horizontal shift moves
+    heights there, on ditch banks and walls, where changes are read, far more than on the flats."""
     d_row, d_col = np.gradient(surface, cell)
     tan = np.hypot(np.asarray(d_row), np.asarray(d_col))
-    return float(np.median(tan[np.isfinite(tan)])) if np.isfinite(tan).any() else 0.0
+    finite = tan[np.isfinite(tan)]
+    return float(np.percentile(finite, STEEP)) if len(finite) else 0.0
 
 
 def _independent(cells: int, cell: float) -> float:
