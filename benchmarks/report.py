@@ -154,6 +154,50 @@ def coregister_section(out: list[str]) -> None:
     out.append("")
 
 
+def blocked_section(out: list[str]) -> None:
+    doc = _load("blocked_ingest")
+    if not doc:
+        return
+    runs = doc["runs"]
+    names = {
+        "read": "read with laspy (for scale)",
+        "whole": "`tdb ingest` whole",
+        "blocks": f"blocked, {doc['block_m']:.0f} m blocks ({doc['blocks']}), 64 m buffer",
+        "blocks_same_threshold": "blocked, the whole run's flat threshold",
+    }
+    out += [
+        "## Ingest of a large file whole and block by block",
+        "",
+        f"`python -m benchmarks.blocked_ingest` on `{doc['file']}` ({doc['points']:,} points, "
+        f"{doc['km2']:.2f} km² of extent); one process per run. Machine: {_machine(doc)}.",
+        "",
+        "| run | seconds | points/s | s per km² | peak RSS MiB (a worker's) |",
+        "|---|---|---|---|---|",
+    ]
+    for key, label in names.items():
+        r = runs[key]
+        worker = f" ({r['worker_peak_rss_mib']:.0f})" if r.get("worker_peak_rss_mib") else ""
+        out.append(
+            f"| {label} | {r['seconds']:.1f} | {r['points_per_s']:,.0f} | {r['s_per_km2']:.2f} "
+            f"| {r['peak_rss_mib']:.0f}{worker} |"
+        )
+    out += [
+        "",
+        "Tiles with the same category as in the whole run, per level (target ≥ 99.9 % at every level):",
+        "",
+    ]
+    out += ["| blocked run | " + " | ".join(f"{lv} m" for lv in (2, 4, 8, 16)) + " | kept 2 m points |"]
+    out += ["|---|---|---|---|---|---|"]
+    for key, label in (("agreement", "own flat threshold"), ("agreement_same_threshold", "the whole run's")):
+        a = doc[key]
+        out.append(
+            f"| {label} | "
+            + " | ".join(f"{a[f'same_{lv}m_pct']:.2f} %" for lv in (2, 4, 8, 16))
+            + f" | {a['kept_2m_points_ratio']:.3f} × |"
+        )
+    out += ["", f"Reduction RMSE: whole {doc['rmse_m']['whole']} m, blocked {doc['rmse_m']['blocks']} m.", ""]
+
+
 def categorise_section(out: list[str]) -> None:
     doc = _load("categorise_speed")
     if not doc:
@@ -405,6 +449,7 @@ def main() -> None:
         epochs_section,
         changes_section,
         coregister_section,
+        blocked_section,
     )
     for section in sections:
         section(out)
