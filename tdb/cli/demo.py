@@ -74,6 +74,7 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
         mesh = area_mesh(area)
         surface = area_surface(area, crs=db.crs("2020"), mesh=mesh)
         from queries.changes import detect, level_of_detection
+        from queries.coregister import coregister
         from queries.dod import difference_of_surfaces
         from queries.run import run
         from tdb.geojson import feature_collection
@@ -83,16 +84,19 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
         t2 = step("queries: ditches, and what changed from 2020 to 2024 (tdb query, tdb diff)")
         ditches = run(db, 'SELECT ditch FROM "2020" WHERE length > 10 AND depth > 0.3')
         write_json(out / "ditches.geojson", feature_collection(ditches, db.crs("2020")))
-        found = detect(db, "2020", "2024")
-        write_json(out / "diff.geojson", feature_collection(found, db.crs("2024")))
-        dod = difference_of_surfaces(db, "2020", "2024")
+        shift = coregister(db, "2020", "2024")  # as tdb diff does by default
+        print(f"   co-registration: {shift.describe()}")
+        found = detect(db, "2020", "2024", shift=shift)
+        members = {"coregistration": shift.to_json()}
+        write_json(out / "diff.geojson", feature_collection(found, db.crs("2024"), members=members))
+        dod = difference_of_surfaces(db, "2020", "2024", shift=shift)
         write_geotiff(out / "dod.tif", dod, tags={"before": "2020", "after": "2024", "units": "m"})
         change_map(
             out / "diff.png",
             found,
             title="2020 → 2024, 2 m tiles",
             dod=dod,
-            lod=level_of_detection(db, "2020", "2024"),
+            lod=level_of_detection(db, "2020", "2024", shift=shift),
         )
         write_geopackage(out / "results.gpkg", {"ditches_2020": ditches, "changes": found}, crs=db.crs("2024"))
         kinds = sorted({f["properties"]["kind"] for f in found})
