@@ -38,11 +38,9 @@ def vertical_part(crs: pyproj.CRS | None) -> pyproj.CRS | None:
     """The vertical CRS ``crs`` declares (the vertical part of a compound CRS), or None."""
     if crs is None:
         return None
-    if crs.is_vertical:
-        return crs
-    if crs.is_compound:
-        return next((c for c in crs.sub_crs_list if c.is_vertical), None)
-    return None
+    if crs.is_compound:  # checked first: pyproj calls a compound CRS with heights vertical too
+        return next((c for c in crs.sub_crs_list if c.is_vertical and not c.is_compound), None)
+    return crs if crs.is_vertical else None
 
 
 def describe(crs: pyproj.CRS | None) -> str:
@@ -109,7 +107,8 @@ def height_reference_note(a: pyproj.CRS | None, b: pyproj.CRS | None, *, names: 
         return None
     if va is not None and vb is not None and va.equals(vb):
         return None
-    return (
-        f"heights of {names[0]!r} are in {describe(va)} and of {names[1]!r} in {describe(vb)}: "
-        "they may not share a height reference"
-    )
+
+    def heights(name: str, v: pyproj.CRS | None) -> str:
+        return f"{name!r} declares no vertical CRS" if v is None else f"{name!r} gives {describe(v)} heights"
+
+    return f"{heights(names[0], va)} and {heights(names[1], vb)}: they may not share a height reference"

@@ -157,7 +157,7 @@ def test_a_note_where_heights_may_not_share_a_reference():
     assert height_reference_note(utm, utm, names=("a", "b")) is None
     assert height_reference_note(cgvd28, cgvd28, names=("a", "b")) is None
     note = height_reference_note(cgvd28, utm, names=("2019", "2023"))
-    assert note and "CGVD28" in note and "none declared" in note
+    assert note and "'2019' gives CGVD28" in note and "'2023' declares no vertical CRS" in note
     assert "NAVD88" in (height_reference_note(cgvd28, navd88, names=("a", "b")) or "")
 
 
