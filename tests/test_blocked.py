@@ -87,3 +87,34 @@ def test_catalog_tiles_in_different_systems_are_refused(scene_file, tmp_path):
         open_catalog(tmp_path / "nothing-here.laz")
     with pytest.raises(InputError, match="multiple of 16"):
         Blocking(block=100)
+
+
+def test_the_command_line_ingests_a_directory_of_tiles(scene_file, tmp_path):
+    from click.testing import CliRunner
+
+    from tdb.cli import main
+
+    cloud = read(scene_file)
+    north = cloud.xyz[:, 1] >= cloud.xyz[:, 1].min() + 100
+    tiles = tmp_path / "tiles"
+    tiles.mkdir()
+    for name, part in (("n.laz", north), ("s.laz", ~north)):
+        write_las(tiles / name, cloud.take(np.flatnonzero(part)))
+    db = tmp_path / "t.tdb"
+    r = CliRunner().invoke(main, ["ingest", str(tiles), "--db", str(db), "--version", "v", "--workers", "1"])
+    assert r.exit_code == 0, r.output
+    with tdb.open(db) as d:
+        assert d.version("v").stats.points == len(cloud)
+        assert d.version("v").params["blocks"] >= 1
+
+
+def test_blocks_need_metres(scene_file, tmp_path):
+    import dataclasses
+
+    from pyproj import CRS
+
+    cloud = read(scene_file)
+    feet = tmp_path / "feet.laz"
+    write_las(feet, dataclasses.replace(cloud, crs=CRS.from_epsg(2263)))  # NY Long Island, US feet
+    with pytest.raises(CRSError, match="metres"):
+        ingest_blocked(feet, tdb.open(tmp_path / "f.tdb", create=True), version="v")
