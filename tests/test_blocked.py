@@ -64,7 +64,7 @@ def test_a_catalog_of_tiles_is_one_survey(scene_file, tmp_path):
     )
     assert len(catalog.read(box)) == int(inside.sum())  # across the seam between the two files
     db = tdb.open(tmp_path / "c.tdb", create=True)
-    v = ingest_blocked(str(tmp_path / "*.laz"), db, version="cat", blocking=Blocking(block=128, workers=1))
+    v = ingest_blocked(str(tmp_path / "*.laz"), db, version="cat", blocking=Blocking(block=256, workers=1))
     assert v.stats.points == len(cloud)
     assert v.stats.reduction.tiles[2] == 100 * 100
 
