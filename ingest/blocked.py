@@ -37,7 +37,6 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
-import laspy
 import numpy as np
 from numpy.typing import NDArray
 
@@ -47,22 +46,21 @@ from ingest.ground.tiling import available_cores, one_blas_thread_here
 from ingest.noise import ground_noise
 from ingest.pipeline import IngestOptions, flat_threshold_for, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
+from ingest.readers import RECORD, from_records, in_box, iter_records
 from tdb.categories import NO_DATA
 from tdb.classes import excluded
-from tdb.cloud import PointCloud
 from tdb.crs import as_crs
 from tdb.database import Database, Version, VersionInfo
 from tdb.errors import CRSError, InputError, Remedy, VersionExistsError
 from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
 from tdb.stats import ReductionStats, VersionStats
-from tdb.tiles import LEVELS, SUBGRID
+from tdb.tiles import LEVELS, SUBGRID, level_bit
 from tdb.units import to_metres, units_of
 
 BLOCK = 512.0  # m: side of a block; a multiple of the coarsest tile (16 m)
 BUFFER = 64.0  # m: see the module's description
 CHUNK = 2_000_000  # points decoded at a time
-RECORD = np.dtype([("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("c", "u1"), ("r", "u1"), ("n", "u1")])
 
 
 @dataclass(frozen=True)
@@ -183,19 +181,14 @@ def _scatter(catalog: Catalog, blocks: list[_Block], tmp: Path, report: Progress
     done, total = 0, catalog.points
     report("reading", 0, total)
     for f in catalog.files:
-        with laspy.open(f.path) as reader:
-            for chunk in reader.chunk_iterator(CHUNK):
-                rec = np.empty(len(chunk), RECORD)
-                rec["x"], rec["y"], rec["z"] = chunk.x, chunk.y, chunk.z
-                rec["c"], rec["r"], rec["n"] = chunk.classification, chunk.return_number, chunk.number_of_returns
-                for k in _touched(grown, f.bounds):
-                    x0, y0, x1, y1 = grown[k]
-                    inside = (rec["x"] >= x0) & (rec["x"] <= x1) & (rec["y"] >= y0) & (rec["y"] <= y1)
-                    if inside.any():
-                        with files[k].open("ab") as fh:
-                            rec[inside].tofile(fh)
-                done += len(chunk)
-                report("reading", done, total)
+        for rec in iter_records(f.path, chunk_size=CHUNK):
+            for k in _touched(grown, f.bounds):
+                inside = in_box(rec, tuple(grown[k]))
+                if inside.any():
+                    with files[k].open("ab") as fh:
+                        rec[inside].tofile(fh)
+            done += len(rec)
+            report("reading", done, total)
     return files
 
 
@@ -231,22 +224,10 @@ def _pilot_threshold(files: list[Path], o: IngestOptions, crs: Any, report: Prog
     for all blocks, so that a tile's category does not depend on the block it fell in."""
     report("ground noise", 0, 1)
     fullest = max((p for p in files if p.exists()), key=lambda p: p.stat().st_size)
-    cloud = _cloud(np.fromfile(fullest, RECORD), crs, str(fullest))
+    cloud = from_records(np.fromfile(fullest, RECORD), crs=crs, source=str(fullest))
     ground = classify_ground(to_metres(cloud), method=o.method, exclude=o.exclude)
     report("ground noise", 1, 1)
     return flat_threshold_for(ground_noise(cloud.xyz[ground]))
-
-
-def _cloud(rec: NDArray[Any], crs: Any, source: str) -> PointCloud:
-    rn = np.maximum(rec["r"], 1)
-    return PointCloud(
-        xyz=np.column_stack([rec["x"], rec["y"], rec["z"]]),
-        classification=rec["c"].copy(),
-        return_number=rn,
-        number_of_returns=np.maximum(rec["n"], rn),
-        crs=crs,
-        source=source,
-    )
 
 
 def _one_block_args(job: tuple[_Block, Path, IngestOptions, Any]) -> _Result | None:
@@ -260,7 +241,7 @@ def _one_block(blk: _Block, path: Path, o: IngestOptions, crs: Any) -> _Result |
     own = (rec["x"] >= x0) & (rec["x"] < x1) & (rec["y"] >= y0) & (rec["y"] < y1)
     if not own.any() or len(rec) < 3:
         return None
-    cloud = _cloud(rec, crs, str(path))
+    cloud = from_records(rec, crs=crs, source=str(path))
     s = survey(cloud, options=o)
     m = s.model
     levels = {}
@@ -342,11 +323,12 @@ def _store(  # noqa: PLR0913 (the version and what is recorded of it)
     known = [(e, w) for e, w in zip(rmse, weights) if e is not None]
     points = _merge_points(results)
     finest = min(levels)
+    kept_finest = int(((points[3] & level_bit(finest)) > 0).sum())
     reduction = ReductionStats(
         dense_posts=posts,
         kept_points=len(points[0]),
-        kept_level2=int(((points[3] & 1) > 0).sum()),
-        reduction_pct=round(100.0 * (1 - ((points[3] & 1) > 0).sum() / max(posts, 1)), 2),
+        kept_level2=kept_finest,
+        reduction_pct=round(100.0 * (1 - kept_finest / max(posts, 1)), 2),
         rmse_m=round(float(np.sqrt(sum(e * e * w for e, w in known) / max(sum(w for _, w in known), 1))), 4)
         if known
         else None,

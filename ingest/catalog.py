@@ -17,7 +17,7 @@ from typing import Any
 import laspy
 import numpy as np
 
-from ingest.readers import read_box
+from ingest.readers import RECORD, from_records, in_box, iter_records
 from tdb.cloud import PointCloud
 from tdb.crs import describe
 from tdb.errors import CRSError, FormatError, InputError, TdbIOError
@@ -54,19 +54,11 @@ class Catalog:
 
     def read(self, box: Box) -> PointCloud:
         """The points of every tile inside ``box`` (edges included), merged."""
-        parts = [read_box(f.path, box) for f in self.files if _overlaps(f.bounds, box)]
-        parts = [p for p in parts if len(p)]
-        if not parts:
-            empty = np.zeros(0, np.uint8)
-            return PointCloud(np.zeros((0, 3)), empty, empty.copy(), empty.copy(), crs=self.crs, source="catalog")
-        return PointCloud(
-            xyz=np.vstack([p.xyz for p in parts]),
-            classification=np.concatenate([p.classification for p in parts]),
-            return_number=np.concatenate([p.return_number for p in parts]),
-            number_of_returns=np.concatenate([p.number_of_returns for p in parts]),
-            crs=self.crs,
-            source=f"catalog of {len(self.files)} files",
-        )
+        parts = [
+            rec[in_box(rec, box)] for f in self.files if _overlaps(f.bounds, box) for rec in iter_records(f.path)
+        ]
+        rec = np.concatenate(parts) if parts else np.zeros(0, RECORD)
+        return from_records(rec, crs=self.crs, source=f"catalog of {len(self.files)} files")
 
 
 def open_catalog(source: str | os.PathLike[str] | Sequence[str | os.PathLike[str]]) -> Catalog:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -70,6 +71,53 @@ def read(
     return cloud
 
 
+RECORD = np.dtype([("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("c", "u1"), ("r", "u1"), ("n", "u1")])
+"""One LAS point as tdb models it: coordinates, class, return number, number of returns."""
+
+
+def iter_records(path: str | os.PathLike[str], *, chunk_size: int = 1_000_000) -> Iterator[NDArray[Any]]:
+    """A LAS/LAZ file's points as :data:`RECORD` arrays, ``chunk_size`` at a time.
+
+    Raises
+    ------
+    FormatError
+        If the file is not a readable LAS/LAZ file, or its point data is corrupt.
+    """
+    p = Path(path)
+    try:
+        reader = laspy.open(p)
+    except Exception as exc:  # the parser raises struct, value, lazrs... errors on bad bytes
+        raise FormatError(f"{p}: not a readable LAS/LAZ file ({exc})") from None
+    with reader:
+        try:
+            for chunk in reader.chunk_iterator(chunk_size):
+                rec = np.empty(len(chunk), RECORD)
+                rec["x"], rec["y"], rec["z"] = chunk.x, chunk.y, chunk.z
+                rec["c"], rec["r"], rec["n"] = chunk.classification, chunk.return_number, chunk.number_of_returns
+                yield rec
+        except Exception as exc:  # any decoder failure means corrupt data
+            raise FormatError(f"{p}: corrupt or truncated point data ({exc})") from None
+
+
+def from_records(rec: NDArray[Any], *, crs: Any, source: str) -> PointCloud:
+    """A :class:`PointCloud` of :data:`RECORD` points (legacy zero return numbers read as 1)."""
+    rn = np.maximum(rec["r"], 1).astype(np.uint8)
+    return PointCloud(
+        xyz=np.column_stack([rec["x"], rec["y"], rec["z"]]),
+        classification=rec["c"].astype(np.uint8),
+        return_number=rn,
+        number_of_returns=np.maximum(rec["n"], rn).astype(np.uint8),
+        crs=crs,
+        source=source,
+    )
+
+
+def in_box(rec: NDArray[Any], box: tuple[float, float, float, float]) -> NDArray[np.bool_]:
+    """Which points lie in ``box`` (x0, y0, x1, y1; edges included)."""
+    x0, y0, x1, y1 = box
+    return np.asarray((rec["x"] >= x0) & (rec["x"] <= x1) & (rec["y"] >= y0) & (rec["y"] <= y1))
+
+
 def read_box(
     path: str | os.PathLike[str], box: tuple[float, float, float, float], *, chunk_size: int = 1_000_000
 ) -> PointCloud:
@@ -84,42 +132,17 @@ def read_box(
     p = Path(path)
     if not p.is_file():
         raise TdbIOError(f"{p}: no such file")
-    x0, y0, x1, y1 = box
-    parts: list[dict[str, NDArray[Any]]] = []
+    parts = [rec[in_box(rec, box)] for rec in iter_records(p, chunk_size=chunk_size)]
+    return from_records(np.concatenate(parts) if parts else np.zeros(0, RECORD), crs=las_crs(p), source=str(p))
+
+
+def las_crs(path: Path) -> Any:
+    """The coordinate system a LAS/LAZ file's header declares (None where none)."""
     try:
-        reader = laspy.open(p)
-    except Exception as exc:  # the parser raises struct, value, lazrs... errors on bad bytes
-        raise FormatError(f"{p}: not a readable LAS/LAZ file ({exc})") from None
-    with reader:
-        try:
-            crs = reader.header.parse_crs()
-            for chunk in reader.chunk_iterator(chunk_size):
-                x, y = np.asarray(chunk.x), np.asarray(chunk.y)
-                inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
-                if inside.any():
-                    parts.append(
-                        {
-                            "xyz": np.column_stack([x[inside], y[inside], np.asarray(chunk.z)[inside]]),
-                            "cls": np.asarray(chunk.classification)[inside],
-                            "rn": np.asarray(chunk.return_number)[inside],
-                            "nr": np.asarray(chunk.number_of_returns)[inside],
-                        }
-                    )
-        except Exception as exc:  # any decoder failure means corrupt data
-            raise FormatError(f"{p}: corrupt or truncated point data ({exc})") from None
-    if not parts:
-        empty = np.zeros(0, np.uint8)
-        return PointCloud(np.zeros((0, 3)), empty, empty.copy(), empty.copy(), crs=crs, source=str(p))
-    rn = np.maximum(np.concatenate([q["rn"] for q in parts]).astype(np.uint8), 1)
-    nr = np.maximum(np.concatenate([q["nr"] for q in parts]).astype(np.uint8), rn)
-    return PointCloud(
-        xyz=np.vstack([q["xyz"] for q in parts]),
-        classification=np.concatenate([q["cls"] for q in parts]).astype(np.uint8),
-        return_number=rn,
-        number_of_returns=nr,
-        crs=crs,
-        source=str(p),
-    )
+        with laspy.open(path) as reader:
+            return reader.header.parse_crs()
+    except Exception as exc:  # laspy raises several types for odd headers and CRS records
+        raise FormatError(f"{path}: unreadable header or coordinate system record ({exc})") from None
 
 
 def _is_las(path: Path) -> bool:
