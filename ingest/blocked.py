@@ -44,7 +44,7 @@ from ingest.catalog import Box, Catalog, is_catalog, open_catalog
 from ingest.ground import classify_ground
 from ingest.ground.tiling import available_cores, one_blas_thread_here
 from ingest.noise import ground_noise
-from ingest.pipeline import IngestOptions, flat_threshold_for, survey
+from ingest.pipeline import IngestOptions, flat_threshold_for, median_sigma, seen_pct, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
 from ingest.readers import RECORD, from_records, in_box, iter_records
 from tdb.categories import NO_DATA
@@ -52,6 +52,7 @@ from tdb.classes import excluded
 from tdb.crs import as_crs
 from tdb.database import Database, Version, VersionInfo
 from tdb.errors import CRSError, InputError, Remedy, VersionExistsError
+from tdb.evidence import TileEvidence
 from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
 from tdb.stats import ReductionStats, VersionStats
@@ -100,6 +101,7 @@ class _Result:
     excluded: int
     noise: float
     flat_threshold: float
+    evidence: TileEvidence
 
 
 def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and how)
@@ -270,6 +272,9 @@ def _one_block(blk: _Block, path: Path, o: IngestOptions, crs: Any) -> _Result |
         excluded=int((excluded(cloud.classification, o.exclude) & own).sum()),
         noise=s.noise,
         flat_threshold=s.flat_threshold,
+        evidence=s.evidence.take(
+            (s.evidence.xg >= x0) & (s.evidence.xg < x1) & (s.evidence.yg >= y0) & (s.evidence.yg < y1)
+        ),
     )
 
 
@@ -337,6 +342,9 @@ def _store(  # noqa: PLR0913 (the version and what is recorded of it)
         no_data={lv: sum(r.reduction.no_data.get(lv, 0) for r in results) for lv in levels},
     )
     read = sum(r.points_read for r in results)
+    evidence = TileEvidence(
+        *(np.concatenate([getattr(r.evidence, k) for r in results]) for k in ("xg", "yg", *TileEvidence.FIELDS))
+    )
     noise = float(np.average([r.noise for r in results], weights=[r.points_read for r in results]))
     thresholds = [r.flat_threshold for r in results]
     bounds = source.bounds
@@ -348,6 +356,8 @@ def _store(  # noqa: PLR0913 (the version and what is recorded of it)
         noise_m=round(noise, 4),
         flat_threshold_m=round(float(np.median(thresholds)), 3),
         bounds=bounds,
+        seen_pct=seen_pct(evidence),
+        sigma_m=median_sigma(evidence),
     )
     params = {
         "method": str(options.method),
@@ -362,6 +372,7 @@ def _store(  # noqa: PLR0913 (the version and what is recorded of it)
         version,
         levels=levels,  # type: ignore[arg-type]
         points=points,
+        evidence=evidence,
         info=VersionInfo(
             acquired=acquired,
             source=f"{len(source.files)} file(s): {source.files[0].path}"

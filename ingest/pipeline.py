@@ -11,7 +11,9 @@ from typing import Any
 import numpy as np
 
 from ingest.dtm import DEFAULT_RESOLUTION, dense_model
+from ingest.evidence import tile_evidence
 from ingest.ground import classify_ground
+from ingest.ground.hills import point_spacing
 from ingest.noise import ground_noise
 from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
@@ -19,6 +21,7 @@ from tdb.classes import NOISE, excluded, parse_classes, user_classes
 from tdb.cloud import PointCloud
 from tdb.database import Database, Version, VersionInfo
 from tdb.errors import Remedy, VersionExistsError
+from tdb.evidence import TileEvidence
 from tdb.options import GroundMethod, LabelScheme, parse
 from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
@@ -40,6 +43,7 @@ class Survey:
     noise: float
     flat_threshold: float
     model: TerrainModel
+    evidence: TileEvidence
 
 
 @dataclass(frozen=True)
@@ -91,7 +95,9 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
     threshold = o.flat_threshold if o.flat_threshold is not None else flat_threshold_for(noise)
     report("categories and reduction", 0, 1)
     model = build(dtm, flat_threshold=threshold, n=SUBGRID)
-    return Survey(metric, ground, dtm, noise, threshold, model)
+    finest = model.levels[min(model.levels)]
+    evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=point_spacing(metric.xyz[:, :2]))
+    return Survey(metric, ground, dtm, noise, threshold, model, evidence)
 
 
 def ingest(
@@ -132,6 +138,8 @@ def ingest(
         noise_m=round(result.noise, 4),
         flat_threshold_m=round(result.flat_threshold, 3),
         bounds=result.dtm.bounds,
+        seen_pct=seen_pct(result.evidence),
+        sigma_m=median_sigma(result.evidence),
     )
     params = {
         "method": str(o.method),
@@ -151,9 +159,20 @@ def ingest(
             params=params,
             stats=stats,
         ),
+        evidence=result.evidence,
         replace=replace,
         progress=report,
     )
+
+
+def seen_pct(evidence: TileEvidence) -> float | None:
+    """Share (%) of the 2 m tiles whose surface rests on ground returns, for :class:`VersionStats`."""
+    return round(100 * evidence.supported_share(), 1) if len(evidence) else None
+
+
+def median_sigma(evidence: TileEvidence) -> float | None:
+    """The median uncertainty (m) of a 2 m tile's surface, for :class:`VersionStats`."""
+    return round(float(np.median(evidence.sigma)), 3) if len(evidence) else None
 
 
 def _cloud(source: str | os.PathLike[str] | PointCloud, options: IngestOptions) -> PointCloud:

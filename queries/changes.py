@@ -30,6 +30,8 @@ from queries.relief import nan_extreme
 from tdb.categories import NO_DATA
 from tdb.crs import check_same_horizontal
 from tdb.database import Database
+from tdb.evidence import GAP_SLOPE, MIN_SUPPORT, TileEvidence
+from tdb.evidence import LEVEL as EVIDENCE_LEVEL
 from tdb.geojson import feature
 from tdb.surface import line_rebuild_at
 from tdb.tiles import SUBGRID, NodeLattice, node_lattice, tile_key
@@ -74,6 +76,42 @@ def _noise_lod(db: Database, a: str, b: str) -> float:
     return max(MIN_LOD, 1.96 * float(np.sqrt(np.sum(np.square(terms)))))
 
 
+def tile_lod(
+    db: Database, a: str, b: str, xg: NDArray[np.int64], yg: NDArray[np.int64], *, level: int, lod: float
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Per tile of ``level`` (corners ``xg``, ``yg``), the level of detection grown by both
+    versions' ground evidence (:mod:`tdb.evidence`), at least ``lod``, and whether both versions
+    saw the tile well enough for a change to be claimed. A coarser tile takes the mean of its 2 m
+    tiles. Where a version holds no evidence (stored before it was kept) the tile keeps ``lod``
+    and counts as seen."""
+    bbox = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
+    variance = np.zeros(len(xg))
+    seen = np.ones(len(xg), bool)
+    for name in (a, b):
+        evidence = db.evidence(name, bbox=bbox)
+        if len(evidence) == 0:
+            continue
+        rmse = db.version(name).stats.reduction.rmse_m or 0.0
+        sigma2, support = _per_tile(evidence, xg, yg, level)
+        variance += np.nan_to_num(sigma2, nan=0.0) + rmse**2
+        seen &= support >= MIN_SUPPORT
+    return np.maximum(lod, 1.96 * np.sqrt(variance)), seen
+
+
+def _per_tile(
+    evidence: TileEvidence, xg: NDArray[np.int64], yg: NDArray[np.int64], level: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Mean variance of the relief hidden in gaps, and mean support, of the 2 m tiles making up each
+    tile of ``level``. The lift stays out: a wall built or a bank lifts a tile as vegetation does."""
+    k = level // EVIDENCE_LEVEL
+    fx, fy = _split(xg // EVIDENCE_LEVEL // k, yg // EVIDENCE_LEVEL // k, k)
+    e = evidence.at(fx * EVIDENCE_LEVEL, fy * EVIDENCE_LEVEL)
+    variance = (GAP_SLOPE * e.gap.astype(float)) ** 2
+    with np.errstate(invalid="ignore"):
+        mean = np.nanmean(variance.reshape(len(xg), k * k), axis=1)
+    return mean, e.support.reshape(len(xg), k * k).mean(axis=1)
+
+
 def tile_nodes(xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> tuple[NDArray[np.float64], ...]:
     """x and y of each tile's 3 × 3 nodes (corners, edge middles, centre), tile by tile."""
     u, v = np.meshgrid([0.0, 0.5, 1.0], [0.0, 0.5, 1.0])
@@ -96,8 +134,8 @@ def _ranges(n: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.flo
     return np.where(none, np.inf, lo), np.where(none, -np.inf, hi)
 
 
-def _may_move(na: NDArray[np.float64], nb: NDArray[np.float64], lod: float) -> NDArray[np.intp]:
-    """Per tile, at most how many of its 3 × 3 nodes can move beyond ``lod`` (stored nodes
+def _may_move(na: NDArray[np.float64], nb: NDArray[np.float64], lod: NDArray[np.float64]) -> NDArray[np.intp]:
+    """Per tile, at most how many of its 3 × 3 nodes can move beyond its ``lod`` (stored nodes
     ``na``, ``nb`` of the two versions), without rebuilding the surfaces.
 
     The rebuilt surface keeps stored corners as they are; an edge middle is a line between
@@ -135,28 +173,36 @@ class _Tiles:
     yg: NDArray[np.int64]
     before: NodeLattice
     after: NodeLattice
-    lod: float
+    lod: NDArray[np.float64]  # per tile
+    seen: NDArray[np.bool_]  # per tile: both versions saw its ground well enough
 
     def moved(self, which: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.bool_]]:
         """The tiles ``which`` that can move (indices), the height change at their 3 × 3 nodes,
         and whether each moved: at least three of its nine nodes beyond the LoD, since one node
         alone is often an interpolation difference between the two sets of kept points."""
+        which = which[self.seen[which]]
         xg, yg = self.xg[which], self.yg[which]
         na, nb = self.before.tile_nodes(xg, yg), self.after.tile_nodes(xg, yg)
-        keep = np.flatnonzero(_may_move(na, nb, self.lod) >= 3)
+        keep = np.flatnonzero(_may_move(na, nb, self.lod[which]) >= 3)
         surfaces = _surface(np.concatenate([na[keep], nb[keep]]))
         dz = surfaces[len(keep) :] - surfaces[: len(keep)]
         with np.errstate(invalid="ignore"):
-            moved = (np.abs(dz) > self.lod).sum(axis=1) >= 3
+            moved = (np.abs(dz) > self.lod[which[keep], None]).sum(axis=1) >= 3
         return which[keep], dz, moved
 
 
 def _regions(
-    xg: NDArray[np.int64], yg: NDArray[np.int64], dz: NDArray[np.float64], lod: float, level: int, min_tiles: int
-) -> list[tuple[NDArray[np.intp], float, bool]]:
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    dz: NDArray[np.float64],
+    lod: NDArray[np.float64],
+    level: int,
+    min_tiles: int,
+) -> list[tuple[NDArray[np.intp], float, bool, float]]:
     """Regions of the moved tiles ``xg``, ``yg`` (8-neighbours on the tile lattice) whose mean
-    change passes the LoD: members, mean height change, and whether the region passes the size
-    gate by itself (small ones count only where a closed form came or went, see :func:`detect`)."""
+    change passes their LoD (``lod`` per tile; a region's is its tiles' median): members, mean
+    height change, whether the region passes the size gate by itself (small ones count only
+    where a closed form came or went, see :func:`detect`), and the region's LoD."""
     i = ((xg - xg.min()) // level).astype(np.intp)
     j = ((yg - yg.min()) // level).astype(np.intp)
     grid = np.zeros((j.max() + 1, i.max() + 1), bool)
@@ -171,13 +217,15 @@ def _regions(
         if len(members) < min(min_tiles, MIN_CLOSED_TILES):
             continue
         d = dz[members]
-        moved = np.abs(d) > lod
+        with np.errstate(invalid="ignore"):
+            moved = np.abs(d) > lod[members, None]
         mean_dz = float(np.nanmean(d[moved])) if moved.any() else 0.0
+        region_lod = float(np.median(lod[members]))
         # Noise moves nodes both ways and its mean stays inside the LoD; a real change is coherent.
-        if abs(mean_dz) < lod:
+        if abs(mean_dz) < region_lod:
             continue
-        big = len(members) >= min_tiles or (len(members) >= MIN_STRONG_TILES and abs(mean_dz) >= STRONG * lod)
-        regions.append((members, mean_dz, big))
+        strong = len(members) >= MIN_STRONG_TILES and abs(mean_dz) >= STRONG * region_lod
+        regions.append((members, mean_dz, len(members) >= min_tiles or strong, region_lod))
     return regions
 
 
@@ -261,31 +309,34 @@ def detect(
     lattices = {name: _lattice(db, name, level, xg[differ], yg[differ]) for name in (before, after)}
     if shift is not None and shift.applied:
         lattices[after] = shifted_lattice(lattices[after], shift)
-    tiles = _Tiles(xg, yg, lattices[before], lattices[after], lod)
+    tiles = _Tiles(
+        xg, yg, lattices[before], lattices[after], *tile_lod(db, before, after, xg, yg, level=level, lod=lod)
+    )
     tested, dz, moved = tiles.moved(differ)
     if not moved.any():
         return []
     first = tested[moved]
-    candidates = _regions(xg[first], yg[first], dz[moved], lod, level, min_tiles)
+    candidates = _regions(xg[first], yg[first], dz[moved], tiles.lod[first], level, min_tiles)
     # Small regions grow too; they are kept at the end only where a closed form came or went.
-    strong = [first[m] for m, _, big in candidates if big]
-    weak = [first[m] for m, d, big in candidates if not big and abs(d) >= CLOSED_DZ * lod]
+    strong = [first[m] for m, _, big, _ in candidates if big]
+    weak = [first[m] for m, d, big, at in candidates if not big and abs(d) >= CLOSED_DZ * at]
     if not strong and not weak:
         return []
     grown, dz = _grow(tiles, valid, tested, dz, moved, np.concatenate(strong + weak), level)
     from_strong = np.isin(grown, np.concatenate(strong)) if strong else np.zeros(len(grown), bool)
+    lods = tiles.lod[grown]
     xg, yg = xg[grown], yg[grown]
     regions = [
-        (members, mean_dz, big and bool(from_strong[members].any()))
-        for members, mean_dz, big in _regions(xg, yg, dz, lod, level, min_tiles)
-        if big or abs(mean_dz) >= CLOSED_DZ * lod
+        (members, mean_dz, big and bool(from_strong[members].any()), at)
+        for members, mean_dz, big, at in _regions(xg, yg, dz, lods, level, min_tiles)
+        if big or abs(mean_dz) >= CLOSED_DZ * at
     ]
     if not regions:
         return []
-    groups = [m for m, _, _ in regions]
+    groups = [m for m, *_ in regions]
     found = {name: _matched(db, name, xg, yg, groups, level, lattices[name]) for name in (before, after)}
     out = []
-    for (members, mean_dz, sure), was, now in zip(regions, found[before], found[after]):
+    for (members, mean_dz, sure, region_lod), was, now in zip(regions, found[before], found[after]):
         if not sure and not _closed_form_changed(was, now, mean_dz):
             continue
         x, y = xg[members], yg[members]
@@ -297,7 +348,7 @@ def detect(
             "area": float(geom.area),
             "dz": round(mean_dz, 3),
             "level": level,
-            "lod": round(lod, 3),
+            "lod": round(region_lod, 3),
         }
         out.append(feature(geom, props))
     return out

@@ -30,6 +30,7 @@ The shift (dx, dy, dz) is the later survey's offset: ``after(x + dx, y + dy) −
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -40,6 +41,7 @@ from scipy import ndimage
 from queries.grids import Box, surface_grids
 from tdb.crs import check_same_horizontal
 from tdb.database import Database
+from tdb.errors import DatabaseError
 from tdb.fill import fill_nearest
 from tdb.options import Coregistration, parse
 from tdb.raster import Raster
@@ -112,6 +114,27 @@ class Shift:
             "vertical_applied": bool(self.vertical),
         }
 
+    @classmethod
+    def from_json(cls, doc: dict[str, Any]) -> Shift:
+        """The shift :meth:`to_json` wrote."""
+
+        def f(key: str, default: float = float("nan")) -> float:
+            value = doc.get(key)
+            return default if value is None else float(value)
+
+        return cls(
+            dx=f("dx", 0.0),
+            dy=f("dy", 0.0),
+            dz=f("dz", 0.0),
+            sigma_xy=f("sigma_xy"),
+            sigma_z=f("sigma_z"),
+            nmad=f("nmad"),
+            stable_share=f("stable_share"),
+            method=parse(Coregistration, doc.get("method", "none")),
+            horizontal=bool(doc.get("horizontal_applied")),
+            vertical=bool(doc.get("vertical_applied")),
+        )
+
     def describe(self) -> str:
         """One line for a person: the shift, its uncertainty, what applies and the residual."""
         parts = []
@@ -132,9 +155,13 @@ def coregister(
     level: int = 2,
     bbox: Box | None = None,
     method: str | Coregistration = Coregistration.AUTO,
+    reuse: bool = True,
 ) -> Shift:
     """The shift that aligns version ``after`` to ``before`` (:func:`estimate_shift`), on their
     rebuilt surfaces over the tiles both hold in ``bbox``.
+
+    A shift found is stored in the database (where it is writable), and with ``reuse`` one
+    stored for the same versions, method, level and area is returned instead of estimated again.
 
     Raises
     ------
@@ -147,12 +174,19 @@ def coregister(
     m = parse(Coregistration, method)
     if m is Coregistration.NONE:
         return Shift(method=m)
+    setting = f"{m} level {level} " + ("all" if bbox is None else ",".join(f"{v:.3f}" for v in bbox))
+    stored = db.coregistration(before, after, setting) if reuse else None
+    if stored is not None:
+        return Shift.from_json(stored)
     extent = bbox or _extent(db, before)
     cells = GRID_CELLS if extent is None else (extent[2] - extent[0]) * (extent[3] - extent[1]) / GRID_CELL**2
     first, second = surface_grids(
         db, before, after, level=level, bbox=bbox, max_cells=int(min(GRID_CELLS, max(cells, 1))), fit=True
     )
-    return estimate_shift(first, second, method=m, noise=_noise(db, before, after))
+    shift = estimate_shift(first, second, method=m, noise=_noise(db, before, after))
+    with contextlib.suppress(DatabaseError):  # a read-only database: the shift is found again next time
+        db.store_coregistration(before, after, setting, shift.to_json())
+    return shift
 
 
 def _noise(db: Database, before: str, after: str) -> float:

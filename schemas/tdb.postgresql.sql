@@ -1,4 +1,4 @@
--- tdb schema version 2 (postgresql); generated from tdb/schema.py
+-- tdb schema version 3 (postgresql); generated from tdb/schema.py
 
 CREATE TABLE categories (
 	code SMALLINT NOT NULL, 
@@ -63,6 +63,25 @@ CREATE TABLE c8 (
 	yg INTEGER NOT NULL, 
 	c SMALLINT NOT NULL, 
 	PRIMARY KEY (version, xg, yg), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+);
+
+CREATE TABLE coregistrations (
+	before INTEGER NOT NULL, 
+	after INTEGER NOT NULL, 
+	setting VARCHAR(200) NOT NULL, 
+	shift TEXT NOT NULL, 
+	PRIMARY KEY (before, after, setting), 
+	FOREIGN KEY(before) REFERENCES versions (id) ON DELETE CASCADE, 
+	FOREIGN KEY(after) REFERENCES versions (id) ON DELETE CASCADE
+);
+
+CREATE TABLE evidence_blocks (
+	version INTEGER NOT NULL, 
+	bx INTEGER NOT NULL, 
+	by INTEGER NOT NULL, 
+	data BYTEA NOT NULL, 
+	PRIMARY KEY (version, bx, by), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
 );
 

@@ -106,3 +106,46 @@ def points_from_blocks(
         return np.empty(0), np.empty(0), np.empty(0), np.empty(0, np.uint8)
     x, y, z, n = (np.concatenate(p) for p in zip(*parts))
     return x, y, z, n
+
+
+def evidence_blocks(
+    xg: NDArray[np.int64], yg: NDArray[np.int64], fields: list[NDArray[np.floating]]
+) -> Iterator[tuple[int, int, bytes]]:
+    """(bx, by, blob) per block of 2 m tiles: one row-major float16 raster per field of
+    ``fields`` (:class:`tdb.evidence.TileEvidence`'s), NaN where no tile."""
+    side = TILES_PER_BLOCK * 2
+    bx, by = np.floor_divide(xg, side), np.floor_divide(yg, side)
+    col, row = (xg - bx * side) // 2, (yg - by * side) // 2
+    order = np.lexsort((by, bx))
+    starts = _group_starts(bx[order], by[order])
+    for s, e in zip(starts, np.r_[starts[1:], len(order)]):
+        sel = order[s:e]
+        raster = np.full((len(fields), TILES_PER_BLOCK, TILES_PER_BLOCK), np.nan, "<f2")
+        for k, f in enumerate(fields):
+            raster[k, row[sel], col[sel]] = f[sel]
+        yield int(bx[sel[0]]), int(by[sel[0]]), raster.tobytes()
+
+
+def evidence_from_blocks(
+    blocks: list[tuple[int, int, bytes]], bbox: tuple[float, float, float, float], *, fields: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64], list[NDArray[np.float32]]]:
+    """(xg, yg, fields) of the 2 m tiles of ``blocks`` overlapping ``bbox``; a tile is held where
+    its last field is not NaN."""
+    side = TILES_PER_BLOCK * 2
+    x0, y0, x1, y1 = bbox
+    xs_, ys_, vals = [], [], []
+    for bx, by, blob in blocks:
+        raster = np.frombuffer(blob, "<f2").reshape(fields, TILES_PER_BLOCK, TILES_PER_BLOCK)
+        xs = bx * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * 2
+        ys = by * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * 2
+        cols = np.flatnonzero((xs + 2 > x0) & (xs < x1))
+        rows = np.flatnonzero((ys + 2 > y0) & (ys < y1))
+        sub = raster[:, rows[:, None], cols[None, :]]
+        r, c = np.nonzero(~np.isnan(sub[-1]))
+        xs_.append(xs[cols[c]])
+        ys_.append(ys[rows[r]])
+        vals.append(sub[:, r, c].astype(np.float32))
+    if not vals:
+        return np.empty(0, np.int64), np.empty(0, np.int64), [np.empty(0, np.float32) for _ in range(fields)]
+    stacked = np.concatenate(vals, axis=1)
+    return np.concatenate(xs_), np.concatenate(ys_), list(stacked)

@@ -27,6 +27,7 @@ from sqlalchemy.exc import IntegrityError, OperationalError
 from tdb import blocks, schema
 from tdb.categories import all_categories
 from tdb.errors import DatabaseError, Remedy, TdbIOError, VersionExistsError, VersionNotFoundError
+from tdb.evidence import TileEvidence
 from tdb.progress import Progress, or_silent
 from tdb.stats import VersionStats
 
@@ -187,13 +188,15 @@ class Database:
                 f"{self.name}: schema version {found} is newer than this tdb ({schema.SCHEMA_VERSION})"
             )
         if found < schema.SCHEMA_VERSION:
-            self._upgrade()
+            self._upgrade(found)
 
-    def _upgrade(self) -> None:
-        """Schema 1 → 2: add the block tables and fill them from the rows of every version."""
+    def _upgrade(self, found: int) -> None:
+        """Add the tables a newer schema has: from 1, the block tables, filled from the rows of every
+        version; from 2, the evidence table (versions stored before it have no evidence)."""
         with self.transaction() as conn:
             schema.metadata.create_all(conn, checkfirst=True)
-            for vid in conn.execute(select(schema.versions.c.id)).scalars().all():
+            old = conn.execute(select(schema.versions.c.id)).scalars().all() if found < 2 else []
+            for vid in old:
                 for level, table in schema.level_tables.items():
                     q = select(table.c.xg, table.c.yg, table.c.c).where(table.c.version == vid)
                     xg, yg, code = _columns(list(conn.execute(q)), (np.int64, np.int64, np.uint8))
@@ -269,12 +272,14 @@ class Database:
         levels: dict[int, tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]],
         points: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]],
         info: VersionInfo | None = None,
+        evidence: TileEvidence | None = None,
         replace: bool = False,
         progress: Progress | None = None,
     ) -> Version:
         """Store one survey: tiles per level (xg, yg, code) and points (x, y, z, n), in one transaction.
 
         ``info``: what is recorded of the survey beside its model (:class:`VersionInfo`);
+        ``evidence``: the ground evidence of its 2 m tiles (:mod:`tdb.evidence`);
         ``progress`` is told ``("database", rows written, rows)`` (:mod:`tdb.progress`).
 
         Raises
@@ -309,6 +314,8 @@ class Database:
                 self._bulk(conn, schema.level_tables[level], vid, {"xg": xg, "yg": yg, "c": code}, report)
                 self._write_tile_blocks(conn, vid, level, xg, yg, code)
             self._write_point_blocks(conn, vid, *points)
+            if evidence is not None:
+                self._write_evidence(conn, vid, evidence)
             x, y, z, n = points
             order = np.lexsort((y, x))
             x, y, z, n = x[order], y[order], z[order], n[order]
@@ -329,6 +336,14 @@ class Database:
         ]
         if rows:
             conn.execute(schema.point_blocks.insert(), rows)
+
+    def _write_evidence(self, conn: Connection, vid: int, e: TileEvidence) -> None:
+        rows = [
+            {"version": vid, "bx": bx, "by": by, "data": blob}
+            for bx, by, blob in blocks.evidence_blocks(e.xg, e.yg, [getattr(e, f) for f in e.FIELDS])
+        ]
+        if rows:
+            conn.execute(schema.evidence_blocks.insert(), rows)
 
     def _bulk(
         self, conn: Connection, table: Any, vid: int, columns: dict[str, NDArray[Any]], report: _RowCount
@@ -362,8 +377,11 @@ class Database:
             self._delete(conn, vid)
 
     def _delete(self, conn: Connection, vid: int) -> None:
-        for table in (*schema.level_tables.values(), schema.points, schema.tile_blocks, schema.point_blocks):
+        tables = (*schema.level_tables.values(), schema.points, schema.tile_blocks, schema.point_blocks)
+        for table in (*tables, schema.evidence_blocks):
             conn.execute(table.delete().where(table.c.version == vid))
+        c = schema.coregistrations.c
+        conn.execute(schema.coregistrations.delete().where((c.before == vid) | (c.after == vid)))
         conn.execute(schema.versions.delete().where(schema.versions.c.id == vid))
 
     # -- reading ----------------------------------------------------------------------------------
@@ -480,6 +498,44 @@ class Database:
         inf = float("inf")
         mask = 1 << schema_levels().index(level)
         return blocks.points_from_blocks([r[0] for r in self._fetch(q)], bbox or (-inf, -inf, inf, inf), mask=mask)
+
+    def evidence(self, version: str, *, bbox: tuple[float, float, float, float] | None = None) -> TileEvidence:
+        """The ground evidence of the 2 m tiles of ``version`` overlapping ``bbox``
+        (:mod:`tdb.evidence`); empty for a version stored before evidence was kept."""
+        eb = schema.evidence_blocks
+        q = select(eb.c.bx, eb.c.by, eb.c.data).where(eb.c.version == self.version(version).id)
+        if bbox is not None:
+            side = blocks.TILES_PER_BLOCK * 2
+            q = q.where(
+                eb.c.bx.between(int(np.floor(bbox[0] / side)), int(np.floor(bbox[2] / side))),
+                eb.c.by.between(int(np.floor(bbox[1] / side)), int(np.floor(bbox[3] / side))),
+            )
+        inf = float("inf")
+        rows = [tuple(r) for r in self._fetch(q)]
+        xg, yg, fields = blocks.evidence_from_blocks(
+            rows, bbox or (-inf, -inf, inf, inf), fields=len(TileEvidence.FIELDS)
+        )
+        return TileEvidence(xg, yg, *fields)
+
+    def coregistration(self, before: str, after: str, setting: str) -> dict[str, Any] | None:
+        """The shift stored for ``after`` against ``before`` found with ``setting`` (a text that
+        names how it was found), as its JSON object; None where none is stored."""
+        c = schema.coregistrations.c
+        q = select(c.shift).where(
+            c.before == self.version(before).id, c.after == self.version(after).id, c.setting == setting
+        )
+        rows = self._fetch(q)
+        return json.loads(rows[0][0]) if rows else None
+
+    def store_coregistration(self, before: str, after: str, setting: str, shift: dict[str, Any]) -> None:
+        """Keep a shift (its JSON object) for later queries, in place of one found the same way."""
+        a, b = self.version(before).id, self.version(after).id
+        c = schema.coregistrations.c
+        with self.transaction() as conn:
+            conn.execute(schema.coregistrations.delete().where(c.before == a, c.after == b, c.setting == setting))
+            conn.execute(
+                schema.coregistrations.insert().values(before=a, after=b, setting=setting, shift=json.dumps(shift))
+            )
 
     def crs(self, version: str) -> Any:
         """The :class:`pyproj.CRS` a version was stored in (None where unknown)."""

@@ -5,7 +5,9 @@ with the 4-bit level mask n. ``c2`` … ``c16``: the category of every tile, key
 by its lower-left corner in whole metres. ``categories``: what each code means.
 ``meta``: the schema version. ``tile_blocks`` and ``point_blocks``: the same
 tiles and points cut into square blocks stored as BLOBs, for reading an area at
-once (:mod:`tdb.blocks`).
+once (:mod:`tdb.blocks`). ``evidence_blocks``: the ground evidence of the 2 m tiles
+(:mod:`tdb.evidence`) in the same blocks. ``coregistrations``: the shifts found between
+two versions (JSON), kept so that later queries reuse them.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from sqlalchemy import (
 
 from tdb.tiles import LEVELS
 
-SCHEMA_VERSION = 2  # 2: tile_blocks, point_blocks
+SCHEMA_VERSION = 3  # 2: tile_blocks, point_blocks; 3: evidence_blocks, coregistrations
 LEVEL_TABLES = {level: f"c{level}" for level in LEVELS}
 
 metadata = MetaData()
@@ -106,6 +108,25 @@ point_blocks = Table(
     Column("by", Integer, primary_key=True, autoincrement=False),
     Column("data", LargeBinary, nullable=False),
     sqlite_with_rowid=False,
+)
+
+evidence_blocks = Table(
+    "evidence_blocks",
+    metadata,
+    Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+    Column("bx", Integer, primary_key=True, autoincrement=False),
+    Column("by", Integer, primary_key=True, autoincrement=False),
+    Column("data", LargeBinary, nullable=False),
+    sqlite_with_rowid=False,
+)
+
+coregistrations = Table(
+    "coregistrations",
+    metadata,
+    Column("before", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+    Column("after", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+    Column("setting", String(200), primary_key=True),
+    Column("shift", Text, nullable=False),
 )
 
 

@@ -41,6 +41,8 @@ class VersionStats:
     noise_m: float | None = None  # the ground's measured vertical noise
     flat_threshold_m: float | None = None
     bounds: tuple[float, float, float, float] | None = None  # x0, y0, x1, y1 of the dense model
+    seen_pct: float | None = None  # 2 m tiles whose surface rests on ground returns (tdb.evidence)
+    sigma_m: float | None = None  # the median standard uncertainty of a 2 m tile's surface
 
     def to_json(self) -> dict[str, Any]:
         """The flat JSON object stored in ``versions.stats``."""
@@ -64,6 +66,8 @@ class VersionStats:
             noise_m=self.noise_m,
             flat_threshold_m=self.flat_threshold_m,
             bounds=None if self.bounds is None else list(self.bounds),
+            seen_pct=self.seen_pct,
+            sigma_m=self.sigma_m,
         )
         return out
 
@@ -90,6 +94,8 @@ class VersionStats:
             noise_m=_float(doc.get("noise_m")),
             flat_threshold_m=_float(doc.get("flat_threshold_m")),
             bounds=None if bounds is None else _box(bounds),
+            seen_pct=_float(doc.get("seen_pct")),
+            sigma_m=_float(doc.get("sigma_m")),
         )
 
 

@@ -91,7 +91,7 @@ def test_schema_1_file_is_upgraded_with_blocks(tmp_path):
     con.commit()
     con.close()
     again = tdb.open(path)
-    assert again.schema_version() == 2
+    assert again.schema_version() == tdb.schema.SCHEMA_VERSION
     after = again.aoi(bbox, level=2)
     assert sorted(zip(before.xg.tolist(), before.yg.tolist(), before.code.tolist())) == sorted(
         zip(after.xg.tolist(), after.yg.tolist(), after.code.tolist())

@@ -144,6 +144,23 @@ def test_an_offset_resurvey_reads_as_the_same_changes_once_aligned(tmp_path):
 
     assert area(aligned) <= 1.3 * area(reference)
     assert area(raw) > 10 * area(aligned)  # as it is, the offset swamps every change
+    # the shift found is stored and reused, not estimated again; a replaced version drops it
+    import queries.coregister as module
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("estimated again")
+
+    original = module.estimate_shift
+    module.estimate_shift = refuse
+    try:
+        again = coregister(db, "a", "b_moved")
+    finally:
+        module.estimate_shift = original
+    assert np.allclose([again.dx, again.dy, again.dz, again.nmad], [s.dx, s.dy, s.dz, s.nmad], atol=1e-4)
+    assert (again.horizontal, again.vertical, again.method) == (s.horizontal, s.vertical, s.method)
+    assert db.coregistration("a", "b_moved", "auto level 2 all") is not None
+    ingest(moved, db, version="b_moved", replace=True)
+    assert db.coregistration("a", "b_moved", "auto level 2 all") is None
 
 
 def test_a_note_where_heights_may_not_share_a_reference():

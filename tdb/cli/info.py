@@ -82,6 +82,10 @@ def _database_info(path: Path, as_json: bool) -> None:
             f"    ground noise {s.noise_m} m, flat threshold {s.flat_threshold_m} m, "
             f"method {v.params.get('method')}"
         )
+        if s.seen_pct is not None:  # versions from before ground evidence was kept have none
+            click.echo(
+                f"    ground seen under {s.seen_pct} % of the 2 m tiles; median surface uncertainty {s.sigma_m} m"
+            )
         if "exclude_classes" in v.params:  # versions from before the option have no record
             classes = ",".join(map(str, v.params["exclude_classes"])) or "none"
             click.echo(f"    excluded classes {classes}: {s.excluded_points:,} of {s.points:,} points")

@@ -1,0 +1,116 @@
+"""Ground evidence of a survey's 2 m tiles (:mod:`tdb.evidence`), from its ground returns."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from tdb.evidence import LEVEL, SUPPORT_SPACINGS, TileEvidence
+from tdb.tiles import tile_key
+
+NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic's six terms
+TOLERANCE = 0.1  # m per m: what a neighbour carried along the surface may fall short by
+CHUNK = 200_000  # points per batch of plane fits (bounds the memory of the neighbourhoods)
+
+
+def envelope_lift(
+    xyz: NDArray[np.float64], *, at: NDArray[np.intp] | None = None, k: int = NEIGHBOURS
+) -> NDArray[np.float64]:
+    """Per point (of ``at``, default all), how far (m) it stands above the lowest of its ``k``
+    nearest neighbours in plan,
+    each carried to it along the local surface (a quadratic fitted to the neighbourhood) and
+    allowed :data:`TOLERANCE` per metre besides.
+
+    Ground taken for ground lies on the lower envelope of its neighbourhood, on a slope or a bank
+    alike (the quadratic carries its shape); low vegetation taken for the ground, among the ground
+    seen through it, stands above it by about its height. Zero at the envelope (a point is one of
+    its own neighbours)."""
+    xyz = np.asarray(xyz, float)
+    at = np.arange(len(xyz)) if at is None else np.asarray(at, np.intp)
+    if len(xyz) < k:
+        return np.zeros(len(at))
+    tree = cKDTree(xyz[:, :2])
+    out = np.empty(len(at))
+    for s in range(0, len(at), CHUNK):
+        p = xyz[at[s : s + CHUNK]]
+        _, nb = tree.query(p[:, :2], k=k)
+        q = xyz[nb] - p[:, None, :]  # neighbours about the point itself
+        u, v = q[..., 0], q[..., 1]
+        design = np.stack([np.ones_like(u), u, v, u * u, u * v, v * v], axis=-1)
+        normal = np.einsum("nki,nkj->nij", design, design) + 1e-6 * np.eye(6)
+        coef = np.linalg.solve(normal, np.einsum("nki,nk->ni", design, q[..., 2])[..., None])[..., 0]
+        # the surface's rise from each neighbour to the point: f(0) − f(u, v)
+        rise = coef[:, None, 0] - np.einsum("nkj,nj->nk", design, coef)
+        carried = q[..., 2] + rise + TOLERANCE * np.hypot(u, v)
+        out[s : s + CHUNK] = np.maximum(-carried.min(axis=1), 0.0)
+    return out
+
+
+def tile_evidence(
+    ground_xyz: NDArray[np.float64],
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    *,
+    spacing: float,
+) -> TileEvidence:
+    """Evidence of the 2 m tiles ``xg``, ``yg`` from the ground returns ``ground_xyz``, for a
+    survey whose pulses lie ``spacing`` m apart.
+
+    A tile's lift is how far its highest ground return stands above its neighbourhood's lower
+    envelope (:func:`envelope_lift`); a tile without any takes its neighbours' (3 × 3 tiles),
+    the gap saying the rest.
+    """
+    xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
+    if len(xg) == 0:
+        return TileEvidence.empty()
+    g = np.asarray(ground_xyz, float)
+    lift = _tile_lift(g, xg, yg)
+    radius = SUPPORT_SPACINGS * spacing
+    distance = _node_distance(g, xg, yg, radius)
+    support = (distance <= radius).mean(axis=1)
+    gap = np.maximum(distance - radius, 0.0).mean(axis=1)
+    return TileEvidence(xg, yg, lift.astype(np.float32), gap.astype(np.float32), support.astype(np.float32))
+
+
+def _tile_lift(g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Envelope lift (m) of each tile's highest ground return, or the mean of its neighbours'
+    (3 × 3 tiles) where it has none, or 0. The highest return is the one vegetation lifts most;
+    one per tile bounds the cost whatever the density."""
+    i0, j0 = int(xg.min() // LEVEL), int(yg.min() // LEVEL)
+    shape = (int(yg.max() // LEVEL) - j0 + 1, int(xg.max() // LEVEL) - i0 + 1)
+    total, count = np.zeros(shape), np.zeros(shape)
+    if len(g):
+        i = np.floor(g[:, 0] / LEVEL).astype(np.int64) - i0
+        j = np.floor(g[:, 1] / LEVEL).astype(np.int64) - j0
+        inside = np.flatnonzero((i >= 0) & (j >= 0) & (i < shape[1]) & (j < shape[0]))
+        flat = j[inside] * shape[1] + i[inside]
+        order = np.lexsort((-g[inside, 2], flat))
+        first = order[np.r_[True, flat[order][1:] != flat[order][:-1]]]
+        top = inside[first]
+        total[j[top], i[top]] = envelope_lift(g, at=top)
+        count[j[top], i[top]] = 1.0
+    ti, tj = xg // LEVEL - i0, yg // LEVEL - j0
+    own = count[tj, ti]
+    near_total = ndimage.uniform_filter(total, size=3, mode="constant")[tj, ti]
+    near_count = ndimage.uniform_filter(count, size=3, mode="constant")[tj, ti]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(own > 0, total[tj, ti] / own, np.where(near_count > 0, near_total / near_count, 0.0))
+
+
+def _node_distance(
+    g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64], radius: float
+) -> NDArray[np.float64]:
+    """(tiles, 9): distance (m) from each tile's 3 × 3 nodes to the nearest ground return. Beyond
+    a few hundred metres it is capped: the gap term is then large enough to claim nothing."""
+    step = LEVEL // 2
+    du, dv = (a.ravel() for a in np.meshgrid([0, step, LEVEL], [0, step, LEVEL]))
+    nx, ny = (xg[:, None] + du).ravel(), (yg[:, None] + dv).ravel()
+    keys, inverse = np.unique(tile_key(nx, ny), return_inverse=True)
+    ux, uy = (keys >> 32).astype(float), (keys & 0xFFFFFFFF).astype(np.uint32).view(np.int32).astype(float)
+    cap = max(100.0 * radius, 50.0)
+    if len(g) == 0:
+        return np.full((len(xg), 9), cap)
+    d, _ = cKDTree(g[:, :2]).query(np.column_stack([ux, uy]), k=1, distance_upper_bound=cap)
+    return np.minimum(d, cap)[inverse.ravel()].reshape(len(xg), 9)

@@ -1,0 +1,78 @@
+"""Ground evidence: per 2 m tile, how far its surface rests on ground returns.
+
+A dense model is a surface everywhere, but it is measured only where the ground was
+seen. Under dense cover it bridges the gap between the nearest ground returns, and
+where a ground filter took low vegetation for the ground its returns stand above
+the ground seen through it. Two figures per tile say how much to trust it:
+
+- ``support``: the share of the tile's 3 × 3 nodes with a ground return close by
+  (within :data:`SUPPORT_SPACINGS` pulse spacings);
+- ``sigma``: the standard uncertainty (m) of the surface in the tile: how far its
+  ground returns stand above the lower envelope of their neighbourhoods (the
+  local surface carried along), and, where a node is farther
+  from a return than that, the relief the terrain may hide across the gap
+  (:data:`GAP_SLOPE` per metre).
+
+A change between two versions is claimed only where both surfaces are seen well
+enough (:data:`MIN_SUPPORT`), beyond a level of detection grown by the relief both
+versions' gaps may hide (:mod:`queries.changes`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tdb.tiles import TileIndex
+
+LEVEL = 2  # m: evidence is kept for the finest tiles
+SUPPORT_SPACINGS = 1.5  # open ground has a return within this many pulse spacings of every node
+GAP_SLOPE = 0.1  # rise/run the terrain may take unseen across a gap in the ground returns
+MIN_SUPPORT = 0.5  # a change needs half a tile's nodes seen in each version
+
+
+@dataclass(frozen=True)
+class TileEvidence:
+    """Ground evidence of 2 m tiles keyed by their lower-left corners ``xg``, ``yg`` (m)."""
+
+    xg: NDArray[np.int64]
+    yg: NDArray[np.int64]
+    lift: NDArray[np.float32]  # m: RMS height of the tile's returns over their lower envelope
+    gap: NDArray[np.float32]  # m: mean distance of its nodes beyond the support radius
+    support: NDArray[np.float32]  # share of its nodes with a ground return within the radius
+
+    FIELDS = ("lift", "gap", "support")
+
+    @classmethod
+    def empty(cls) -> TileEvidence:
+        none = np.empty(0, np.float32)
+        return cls(np.empty(0, np.int64), np.empty(0, np.int64), none, none, none)
+
+    def __len__(self) -> int:
+        return len(self.xg)
+
+    @property
+    def sigma(self) -> NDArray[np.float64]:
+        """Standard uncertainty (m) of each tile's surface: its lift, and the relief a gap may hide."""
+        return np.sqrt(self.lift.astype(float) ** 2 + (GAP_SLOPE * self.gap.astype(float)) ** 2)
+
+    def take(self, index: NDArray[np.intp] | NDArray[np.bool_]) -> TileEvidence:
+        return TileEvidence(self.xg[index], self.yg[index], *(getattr(self, f)[index] for f in self.FIELDS))
+
+    def at(self, xg: NDArray[np.int64], yg: NDArray[np.int64]) -> TileEvidence:
+        """The evidence of the tiles ``xg``, ``yg``, in their order: NaN (support 0) where none is held."""
+        xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
+        fields = [np.full(len(xg), np.nan, np.float32) for _ in self.FIELDS]
+        fields[-1][:] = 0.0
+        if len(self) and len(xg):
+            at = TileIndex(self.xg // LEVEL, self.yg // LEVEL).find(xg // LEVEL, yg // LEVEL)
+            hit = at >= 0
+            for out, name in zip(fields, self.FIELDS):
+                out[hit] = getattr(self, name)[at[hit]]
+        return TileEvidence(xg, yg, *fields)
+
+    def supported_share(self) -> float:
+        """Share of the tiles whose surface is seen well enough for a change to be claimed."""
+        return float((self.support >= MIN_SUPPORT).mean()) if len(self) else 0.0

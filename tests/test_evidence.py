@@ -1,0 +1,166 @@
+"""Ground evidence per 2 m tile: what it measures, how it is stored, and how change detection uses it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from sqlalchemy import text
+
+import tdb
+from ingest.evidence import envelope_lift, tile_evidence
+from ingest.pipeline import ingest
+from queries.changes import detect, tile_lod
+from tdb.cloud import from_arrays
+from tdb.evidence import GAP_SLOPE, MIN_SUPPORT, SUPPORT_SPACINGS, TileEvidence
+
+CRS = "EPSG:25832"
+
+
+def _ground(size: float = 40.0, density: float = 4.0, *, seed: int = 0, noise: float = 0.02) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    n = int(size * size * density)
+    x, y = rng.uniform(0, size, n), rng.uniform(0, size, n)
+    return np.column_stack([x, y, 10 + 0.05 * x + rng.normal(0, noise, n)])
+
+
+def _tiles(size: float) -> tuple[np.ndarray, np.ndarray]:
+    xg, yg = np.meshgrid(np.arange(0, size, 2), np.arange(0, size, 2))
+    return xg.ravel().astype(np.int64), yg.ravel().astype(np.int64)
+
+
+def _inner(xg: np.ndarray, yg: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    return (xg >= lo) & (xg + 2 <= hi) & (yg >= lo) & (yg + 2 <= hi)
+
+
+def test_open_ground_is_seen_everywhere_with_little_lift():
+    g = _ground()
+    xg, yg = _tiles(40)
+    e = tile_evidence(g, xg, yg, spacing=0.5)
+    inner = _inner(xg, yg, 4, 36)
+    assert (e.support[inner] == 1).all()
+    assert (e.gap[inner] == 0).all()
+    assert np.median(e.lift[inner]) < 0.06
+
+
+def test_a_gap_in_the_ground_returns_is_unseen_and_uncertain():
+    g = _ground()
+    hole = (np.abs(g[:, 0] - 20) < 8) & (np.abs(g[:, 1] - 20) < 8)
+    xg, yg = _tiles(40)
+    e = tile_evidence(g[~hole], xg, yg, spacing=0.5)
+    centre = _inner(xg, yg, 16, 24)
+    assert (e.support[centre] == 0).all()
+    # the middle of a 16 m hole lies over 4 m from any return
+    assert (e.gap[centre] > 4 - SUPPORT_SPACINGS * 0.5).all()
+    assert (e.sigma[centre] >= GAP_SLOPE * e.gap[centre] * (1 - 1e-6)).all()
+    assert e.supported_share() < 1
+
+
+def test_low_vegetation_taken_for_ground_lifts_its_tiles():
+    rng = np.random.default_rng(11)
+    g = _ground(seed=1)
+    shrub = (g[:, 0] > 20) & (rng.random(len(g)) < 0.6)
+    g[shrub, 2] += rng.uniform(0.4, 1.2, shrub.sum())
+    xg, yg = _tiles(40)
+    e = tile_evidence(g, xg, yg, spacing=0.5)
+    bare, covered = _inner(xg, yg, 4, 16), (xg >= 24) & (xg <= 34) & _inner(xg, yg, 4, 36)
+    assert np.median(e.lift[covered]) > 0.3
+    assert np.median(e.lift[covered]) > 5 * np.median(e.lift[bare])
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.floats(-0.15, 0.15), st.floats(-0.15, 0.15), st.floats(0, 0.5))
+def test_a_smooth_curved_surface_has_no_lift(a, b, slope):
+    """A quadratic surface (a bank, a hollow, a dome) is carried along: bare, it lies on its envelope."""
+    rng = np.random.default_rng(2)
+    x, y = rng.uniform(-8, 8, 1500), rng.uniform(-8, 8, 1500)
+    z = a * x * x + b * y * y + slope * x
+    assert np.percentile(envelope_lift(np.column_stack([x, y, z])), 95) < 1e-6
+
+
+def test_evidence_is_stored_per_version_and_read_by_area(tmp_path):
+    db = tdb.open(tmp_path / "e.tdb", create=True)
+    g = _ground(size=160, density=0.5)
+    cloud = from_arrays(g[:, 0] + 1000, g[:, 1] + 2000, g[:, 2], crs=CRS)
+    v = ingest(cloud, db, version="a")
+    e = db.evidence("a")
+    assert len(e) == v.stats.reduction.tiles[2]  # one per 2 m tile
+    assert v.stats.seen_pct is not None and v.stats.seen_pct > 90
+    assert v.stats.sigma_m is not None and v.stats.sigma_m < 0.1
+    part = db.evidence("a", bbox=(1100.0, 2100.0, 1110.0, 2110.0))
+    assert len(part) == 25
+    back = e.at(part.xg, part.yg)
+    np.testing.assert_array_equal(back.lift, part.lift)
+    np.testing.assert_array_equal(back.support, part.support)
+    missing = e.at(np.array([0], np.int64), np.array([0], np.int64))
+    assert np.isnan(missing.lift[0]) and missing.support[0] == 0
+    db.delete_version("a")
+    with db.engine.connect() as conn:
+        assert conn.execute(text("SELECT count(*) FROM evidence_blocks")).scalar() == 0
+
+
+def test_a_version_two_database_is_upgraded_and_its_versions_have_no_evidence(tmp_path):
+    path = tmp_path / "old.tdb"
+    db = tdb.open(path, create=True)
+    g = _ground(size=60, density=1)
+    ingest(from_arrays(*g.T, crs=CRS), db, version="a")
+    with db.engine.begin() as conn:
+        conn.execute(text("DROP TABLE evidence_blocks"))
+        conn.execute(text("DROP TABLE coregistrations"))
+        conn.execute(text("UPDATE meta SET value = '2' WHERE key = 'schema_version'"))
+    db.close()
+    db = tdb.open(path)
+    assert db.schema_version() == 3
+    assert len(db.evidence("a")) == 0
+    ingest(from_arrays(*g.T, crs=CRS), db, version="b")
+    assert len(db.evidence("b")) > 0
+    # without evidence on one side the other side's still counts, and every tile counts as seen
+    xg, yg = _tiles(60)
+    lod, seen = tile_lod(db, "a", "b", xg, yg, level=2, lod=0.1)
+    assert seen.all() and (lod >= 0.1).all()
+
+
+def test_a_change_is_claimed_only_where_both_surveys_saw_the_ground(tmp_path):
+    """A platform raised 1 m; the later survey sees its middle through a hole in the returns."""
+    db = tdb.open(tmp_path / "c.tdb", create=True)
+    before = _ground(size=80, density=2, seed=3)
+    after = _ground(size=80, density=2, seed=4)
+    raised = (np.abs(after[:, 0] - 40) < 15) & (np.abs(after[:, 1] - 40) < 15)
+    after[raised, 2] += 1.0
+    hole = (np.abs(after[:, 0] - 40) < 8) & (np.abs(after[:, 1] - 40) < 8)
+    ingest(from_arrays(*before.T, crs=CRS), db, version="a")
+    ingest(from_arrays(*after[~hole].T, crs=CRS), db, version="b")
+    found = detect(db, "a", "b")
+    assert found
+    import shapely
+
+    area = shapely.union_all([shapely.geometry.shape(f["geometry"]) for f in found])
+    assert area.contains(shapely.Point(40, 27))  # seen: the raised rim
+    assert not area.contains(shapely.Point(40, 40))  # bridged by the TIN: not claimed
+    xg, yg = np.array([38], np.int64), np.array([38], np.int64)
+    _, seen = tile_lod(db, "a", "b", xg, yg, level=2, lod=0.1)
+    assert not seen[0]
+    assert db.evidence("b").at(xg, yg).support[0] < MIN_SUPPORT
+
+
+def test_empty_evidence_has_no_tiles():
+    e = TileEvidence.empty()
+    assert len(e) == 0 and e.supported_share() == 0.0
+    assert len(e.at(np.array([2], np.int64), np.array([4], np.int64))) == 1
+
+
+@pytest.mark.parametrize("fields", [1, 3])
+def test_evidence_blocks_round_trip(fields):
+    from tdb.blocks import evidence_blocks, evidence_from_blocks
+
+    rng = np.random.default_rng(5)
+    xg = rng.choice(np.arange(-600, 600, 2), 300, replace=False).astype(np.int64)
+    yg = rng.choice(np.arange(-600, 600, 2), 300, replace=False).astype(np.int64)
+    values = [rng.random(300).astype(np.float32) for _ in range(fields)]
+    blobs = list(evidence_blocks(xg, yg, values))
+    x, y, back = evidence_from_blocks(blobs, (-1e9, -1e9, 1e9, 1e9), fields=fields)
+    order, want = np.lexsort((y, x)), np.lexsort((yg, xg))
+    np.testing.assert_array_equal(x[order], xg[want])
+    for b, v in zip(back, values):
+        np.testing.assert_allclose(b[order], v[want], atol=1e-3)
