@@ -1,12 +1,13 @@
 """The dense ground model: a regular grid interpolated from the ground points.
 
 Linear interpolation on the Delaunay TIN of the ground points, evaluated at
-cell centres; cells outside the points' convex hull, or under a TIN facet
+cell centres by scan conversion (:mod:`tdb.rasterise`); cells outside the points' convex hull, or under a TIN facet
 longer than ``max_edge``, are no-data rather than guesses.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -14,7 +15,8 @@ from numpy.typing import NDArray
 
 from tdb.errors import InputError
 from tdb.raster import MAX_CELLS, Raster
-from tdb.tin import surface_height, triangulate
+from tdb.rasterise import rasterise
+from tdb.tin import triangulate
 
 DEFAULT_RESOLUTION = 0.5
 
@@ -68,15 +70,8 @@ def dense_model(
             f"a {resolution} m grid over this extent needs {rows * cols:,} cells; use a coarser resolution"
         )
     raster = Raster(np.full((rows, cols), np.nan), float(x0), float(y0 + rows * resolution), resolution, crs)
-    xs, ys = raster.centres()
-    data = raster.data
-    long_facet = _long_facets(tri, xyz, max_edge)
-    for r0 in range(0, rows, 512):  # bands bound the memory of point location
-        gx, gy = np.meshgrid(xs, ys[r0 : r0 + 512])
-        z, simplex = surface_height(tri, xyz[:, 2], np.column_stack([gx.ravel(), gy.ravel()]))
-        z[(simplex >= 0) & long_facet[np.maximum(simplex, 0)]] = np.nan  # a guess across a big gap
-        data[r0 : r0 + 512] = z.reshape(gx.shape)
-    return raster
+    faces = tri.simplices[~_long_facets(tri, xyz, max_edge)]  # no guess across a big gap
+    return replace(raster, data=rasterise(xyz[:, :2], xyz[:, 2], faces, raster.posts()))
 
 
 def _long_facets(tri: Any, xyz: NDArray[np.float64], max_edge: float | None) -> NDArray[np.bool_]:

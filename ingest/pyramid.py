@@ -13,7 +13,7 @@ from ingest.tiles import node_grid
 from tdb.categories import NO_DATA
 from tdb.raster import Raster
 from tdb.stats import ReductionStats
-from tdb.surface import kept_mesh, mesh_height
+from tdb.surface import kept_mesh, mesh_grid
 from tdb.tiles import LEVELS, SUBGRID, level_bit
 
 
@@ -89,9 +89,6 @@ def reduction_stats(dtm: Raster, model: TerrainModel, *, n: int = SUBGRID) -> Re
     keep = (model.n & level_bit(finest)) > 0
     rmse = max_error = None
     if keep.sum() >= 3:
-        xs, ys = dtm.centres()
-        gx, gy = np.meshgrid(xs, ys)
-        q = np.column_stack([gx[valid], gy[valid]])
         tiles = model.levels[finest]
         mesh = kept_mesh(
             model.x[keep],
@@ -103,8 +100,7 @@ def reduction_stats(dtm: Raster, model: TerrainModel, *, n: int = SUBGRID) -> Re
             level=finest,
             n=n,
         )
-        rebuilt = mesh_height(mesh, q)
-        err = rebuilt - dtm.data[valid]
+        err = mesh_grid(mesh, dtm.posts())[valid] - dtm.data[valid]
         ok = ~np.isnan(err)
         rmse = round(float(np.sqrt(np.mean(err[ok] ** 2))), 4)
         max_error = round(float(np.abs(err[ok]).max()), 4)

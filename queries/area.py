@@ -11,7 +11,8 @@ from tdb.atomic import atomic_path
 from tdb.database import Area, Database
 from tdb.errors import InputError
 from tdb.raster import Raster
-from tdb.surface import KeptMesh, kept_mesh, mesh_height
+from tdb.rasterise import PostGrid
+from tdb.surface import KeptMesh, kept_mesh, mesh_grid
 
 
 def area_surface(
@@ -32,9 +33,8 @@ def area_surface(
     x0, y0, x1, y1 = bbox or area.bbox
     xs = np.arange(np.ceil(x0 / cell) * cell, x1 + 1e-9, cell)
     ys = np.arange(np.floor(y1 / cell) * cell, y0 - 1e-9, -cell)
-    gx, gy = np.meshgrid(xs, ys)
-    z = mesh_height(mesh, np.column_stack([gx.ravel(), gy.ravel()]))
-    return Raster(z.reshape(gx.shape), float(xs[0] - cell / 2), float(ys[0] + cell / 2), cell, crs)
+    z = mesh_grid(mesh, PostGrid(float(xs[0]), float(ys[0]), cell, len(ys), len(xs)))
+    return Raster(z, float(xs[0] - cell / 2), float(ys[0] + cell / 2), cell, crs)
 
 
 def area_mesh(area: Area) -> KeptMesh:

@@ -8,6 +8,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.rasterise import PostGrid
+
 MAX_CELLS = 400_000_000  # ~3 GB of float64: beyond this an extent is absurd for its cell size
 
 
@@ -38,6 +40,11 @@ class Raster:
         """x of each column centre and y of each row centre (north first)."""
         rows, cols = self.shape
         return self.x0 + (np.arange(cols) + 0.5) * self.cell, self.y1 - (np.arange(rows) + 0.5) * self.cell
+
+    def posts(self) -> PostGrid:
+        """The cell centres as a :class:`tdb.rasterise.PostGrid` (surfaces are rasterised onto it)."""
+        rows, cols = self.shape
+        return PostGrid(self.x0 + 0.5 * self.cell, self.y1 - 0.5 * self.cell, self.cell, rows, cols)
 
     def sample(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
         """Bilinear value at points; NaN outside or next to no-data.

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from tdb.categories import NO_DATA, subgrid_uv, templates
 from tdb.fill import fill_lines, fill_lines_stack
+from tdb.rasterise import PostGrid, rasterise
 from tdb.tiles import SUBGRID, TileIndex, corner_nodes
 from tdb.tin import Tin, locate, surface_height, triangulate
 
@@ -160,6 +161,14 @@ def kept_mesh(  # noqa: PLR0913 (the points' three arrays and the tiles' three)
     faces[members[0::2]] = tri_a
     faces[members[1::2]] = tri_b
     return KeptMesh(tri, np.asarray(z, np.float64), faces, halves, key * step, corners, anti, level)
+
+
+def mesh_grid(mesh: KeptMesh, grid: PostGrid) -> NDArray[np.float64]:
+    """Heights of the mesh at the posts of ``grid`` (rows, cols); NaN outside it. The same as
+    :func:`mesh_height` at those posts (its faces are the re-split tiles' triangles), without
+    locating a post."""
+    xy = mesh.tri.qhull.points + mesh.tri.origin
+    return rasterise(xy, mesh.z, mesh.faces, grid)
 
 
 def mesh_height(mesh: KeptMesh, xy: NDArray[np.float64]) -> NDArray[np.float64]:

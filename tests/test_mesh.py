@@ -8,7 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tdb.categories import NO_DATA, all_categories, subgrid_uv, templates
-from tdb.surface import anti_diagonal, corner_nodes, kept_mesh, mesh_height, split_heights
+from tdb.rasterise import PostGrid
+from tdb.surface import anti_diagonal, corner_nodes, kept_mesh, mesh_grid, mesh_height, split_heights
 
 SW, SE, NW, NE = 0, 2, 6, 8  # sub-part indices of the corners
 DIAGONAL = [c for c in all_categories() if c.orientation in ((SW, NE), (NE, SW), (SE, NW), (NW, SE))]
@@ -87,3 +88,8 @@ def test_the_mesh_follows_the_category_and_its_faces_agree_with_its_heights(anti
     on_faces = l1[k, first] * z[f[:, 0]] + l2[k, first] * z[f[:, 1]] + l3[k, first] * z[f[:, 2]]
     np.testing.assert_allclose(mesh_height(mesh, q), on_faces, atol=1e-9)
     assert abs(np.abs(area).sum() / 2 - 24.0) < 1e-9  # the faces tile the block once
+    # on a grid of posts, scan conversion gives mesh_height's heights without locating a post
+    grid = PostGrid(0.05, 3.95, 0.1, 40, 60)
+    gx, gy = np.meshgrid(grid.x0 + np.arange(grid.cols) * grid.cell, grid.y0 - np.arange(grid.rows) * grid.cell)
+    located = mesh_height(mesh, np.column_stack([gx.ravel(), gy.ravel()])).reshape(gx.shape)
+    np.testing.assert_allclose(mesh_grid(mesh, grid), located, atol=1e-9)
