@@ -26,6 +26,7 @@ from benchmarks.common import save_runs, synthetic_runs
 from ingest.pipeline import IngestOptions, ingest
 from ingest.synth import apply_changes, make_scene, sample
 from queries.changes import detect
+from queries.coregister import coregister
 from queries.dod import difference_of_surfaces
 from queries.match import find
 
@@ -86,7 +87,7 @@ def km2_pair(workdir: Path, *, density: float, size: float = 1000.0, rounds: int
 def diff_seconds(path: Path, *, runs: int = 3) -> dict[str, float]:
     """Seconds of ``runs`` diffs, and of ``runs`` ditch queries on the earlier version, over the
     whole extent of the database at ``path`` (median, and the first run in this process), and of
-    one DEM of difference."""
+    one DEM of difference, and of ``runs`` co-registrations (estimated afresh each time)."""
     db = tdb.open(path)
     seconds, query_seconds = [], []
     for _ in range(runs):
@@ -100,6 +101,11 @@ def diff_seconds(path: Path, *, runs: int = 3) -> dict[str, float]:
     t0 = time.perf_counter()
     dod = difference_of_surfaces(db, "before", "after")
     dod_seconds = time.perf_counter() - t0
+    shift_seconds = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        coregister(db, "before", "after", reuse=False)
+        shift_seconds.append(time.perf_counter() - t0)
     x0, y0, x1, y1 = db.version("before").stats.bounds or (0.0, 0.0, 0.0, 0.0)
     return {
         "dod_seconds": dod_seconds,
@@ -111,6 +117,7 @@ def diff_seconds(path: Path, *, runs: int = 3) -> dict[str, float]:
         "ditch_query_seconds": float(np.median(query_seconds)),
         "ditch_query_first_seconds": query_seconds[0],
         "ditches": len(ditches),
+        "coregister_seconds": float(np.median(shift_seconds)),
     }
 
 

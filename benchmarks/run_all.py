@@ -21,6 +21,7 @@ MODULES = (
     "changes_synth",
     "epochs",
     "coregister_synth",
+    "coregister_peers",
 )
 
 

@@ -21,6 +21,7 @@ from tdb.surface import line_rebuild_at
 from tdb.tiles import SUBGRID, node_lattice, node_spacing, tile_key
 
 Box = tuple[float, float, float, float]
+BLOCK = 16  # m: the blocks a sample of the area is taken in
 
 
 def shared_tiles(
@@ -33,7 +34,7 @@ def shared_tiles(
     return xa[ia], ya[ia], ca[ia], cb[ib]
 
 
-def surface_grids(
+def surface_grids(  # noqa: PLR0913 (the two versions, where, and how finely)
     db: Database,
     before: str,
     after: str,
@@ -42,12 +43,16 @@ def surface_grids(
     bbox: Box | None = None,
     max_cells: int = MAX_CELLS // 10,
     fit: bool = False,
+    blocks: int = 1,
 ) -> tuple[Raster, Raster]:
     """Both versions' rebuilt surfaces on one grid of the level's sub-grid nodes, as
     the module describes (NaN outside the tiles both hold); a grid over ``max_cells`` raises an
-    :class:`InputError`, or with ``fit`` keeps every k-th node."""
+    :class:`InputError`, or with ``fit`` keeps every k-th node. With ``blocks`` k > 1 only one
+    16 m block in k is rebuilt (diagonal stripes of whole blocks, so slopes inside them hold)."""
     xg, yg, ca, cb = shared_tiles(db, before, after, level=level, bbox=bbox)
     held = (ca != NO_DATA) & (cb != NO_DATA)
+    if blocks > 1:
+        held &= (xg // BLOCK + yg // BLOCK) % blocks == 0
     xg, yg = xg[held], yg[held]
     if len(xg) == 0:
         raise InputError(f"versions {before!r} and {after!r} share no tiles at level {level} there")
@@ -66,25 +71,28 @@ def surface_grids(
             "give a smaller bbox"
         )
     grown = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
-    # Scatter the tiles' nodes onto the grid; neighbours share their edge nodes, with one value.
+    # Tile origins lie on every (SUBGRID − 1)-th node, so the sub-grid nodes that fall on the grid
+    # are the same in every tile: only those are rebuilt. Neighbours share their edge nodes.
     d = np.arange(SUBGRID)
-    ni = (np.rint(xg / s).astype(np.int64)[:, None, None] + d[None, None, :]).repeat(SUBGRID, axis=1)
-    nj = (np.rint(yg / s).astype(np.int64)[:, None, None] + d[None, :, None]).repeat(SUBGRID, axis=2)
+    on_x = d[(np.rint(xg[0] / s).astype(np.int64) + d - i0) % step == 0]
+    on_y = d[(np.rint(yg[0] / s).astype(np.int64) + d - j0) % step == 0]
+    cells = (on_y[:, None] * SUBGRID + on_x[None, :]).ravel()
+    ni = np.rint(xg / s).astype(np.int64)[:, None] + np.tile(on_x, len(on_y))[None, :]
+    nj = np.rint(yg / s).astype(np.int64)[:, None] + np.repeat(on_y, len(on_x))[None, :]
     rows, cols = (j1 - j0) // step + 1, (i1 - i0) // step + 1
-    ci, cj = ni - i0, nj - j0
-    ok = (ci >= 0) & (cj >= 0) & (ci % step == 0) & (cj % step == 0) & (ci // step < cols) & (cj // step < rows)
+    ci, cj = (ni - i0) // step, (nj - j0) // step
+    ok = (ci >= 0) & (cj >= 0) & (ci < cols) & (cj < rows)
     cell = s * step
     out = []
     for version in (before, after):
         grid = np.full((rows, cols), np.nan)
-        grid[rows - 1 - cj[ok] // step, ci[ok] // step] = _surface(db, version, level, xg, yg, grown)[
-            ok
-        ]  # north first
+        grid[rows - 1 - cj[ok], ci[ok]] = _surface(db, version, level, xg, yg, grown, cells)[ok]  # north first
         out.append(Raster(grid, i0 * s - cell / 2, (j0 + (rows - 1) * step) * s + cell / 2, cell, db.crs(version)))
     return out[0], out[1]
 
 
-def _surface(db: Database, version: str, level: int, xg: Any, yg: Any, box: Box) -> np.ndarray:
+def _surface(db: Database, version: str, level: int, xg: Any, yg: Any, box: Box, cells: Any) -> np.ndarray:
+    """The version's rebuilt surface at the flat sub-grid indices ``cells`` of each tile (T, len(cells))."""
     x, y, z, _ = db.points(version, level=level, bbox=box, ordered=False)
     nodes = node_lattice(x, y, z, level).tile_nodes(xg, yg)
-    return line_rebuild_at(nodes).reshape(nodes.shape)
+    return line_rebuild_at(nodes, cells)
