@@ -2,11 +2,13 @@
 
 A failure or an interruption part way leaves the destination as it was (absent, or the old
 file) and no partial file beside it; a write that cannot be done is a :class:`TdbIOError`.
+No output replaces a terrain database: a map or a GeoPackage written onto one is refused.
 """
 
 from __future__ import annotations
 
 import os
+import sqlite3
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -23,6 +25,8 @@ def atomic_path(path: str | os.PathLike[str], *, errors: tuple[type[BaseExceptio
     cannot be written; they become a :class:`TdbIOError` naming ``path``.
     """
     target = Path(path)
+    if is_terrain_database(target):
+        raise TdbIOError(f"{target}: a terrain database; an output never replaces one")
     try:
         fd, name = tempfile.mkstemp(
             prefix=f".{target.stem}.", suffix=f".part{target.suffix}", dir=target.parent or "."
@@ -46,6 +50,22 @@ def atomic_path(path: str | os.PathLike[str], *, errors: tuple[type[BaseExceptio
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def is_terrain_database(path: Path) -> bool:
+    """Whether ``path`` is an SQLite file holding tdb's ``meta`` and ``versions`` tables (read only)."""
+    try:
+        with path.open("rb") as fh:
+            if fh.read(16) != b"SQLite format 3\x00":
+                return False
+        con = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+        try:
+            names = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        finally:
+            con.close()
+    except (OSError, sqlite3.Error):
+        return False
+    return {"meta", "versions"} <= names
 
 
 def write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
