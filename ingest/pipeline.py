@@ -13,6 +13,7 @@ import numpy as np
 from ingest.dtm import DEFAULT_RESOLUTION, dense_model
 from ingest.evidence import tile_evidence
 from ingest.ground import classify_ground
+from ingest.ground.grids import quantised
 from ingest.ground.hills import point_spacing
 from ingest.noise import ground_noise
 from ingest.pyramid import TerrainModel, build
@@ -96,7 +97,8 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
     report("categories and reduction", 0, 1)
     model = build(dtm, flat_threshold=threshold, n=SUBGRID)
     finest = model.levels[min(model.levels)]
-    evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=point_spacing(metric.xyz[:, :2]))
+    spacing = quantised(point_spacing(metric.xyz[:, :2]))
+    evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing)
     return Survey(metric, ground, dtm, noise, threshold, model, evidence)
 
 

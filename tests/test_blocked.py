@@ -45,6 +45,12 @@ def test_blocks_give_the_one_piece_model(scene_file, tmp_path):
     ra, rb = db.version("whole").stats.reduction, db.version("blocks").stats.reduction
     assert rb.dense_posts == ra.dense_posts
     assert abs((rb.rmse_m or 0) - (ra.rmse_m or 0)) <= 0.005
+    # the ground evidence of every tile, once, as in one piece
+    ea, eb = db.evidence("whole"), db.evidence("blocks")
+    assert len(ea) == len(eb) == len(_codes(db, "whole", 2))
+    back = eb.at(ea.xg, ea.yg)
+    assert np.mean(back.support == ea.support) >= 0.995
+    assert np.mean(np.abs(back.lift - ea.lift) < 0.01) >= 0.99
 
 
 def test_a_catalog_of_tiles_is_one_survey(scene_file, tmp_path):

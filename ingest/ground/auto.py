@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from ingest.ground.earthworks import EarthworkShape, WallShape, elongated_objects, narrow_walls
-from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of
+from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of, quantised
 from ingest.ground.hills import HillShape, point_spacing, smooth_hills
 from ingest.ground.morphology import progressive_opening
 from ingest.ground.outliers import ground_spikes, low_outliers, sunken_groups
@@ -212,7 +212,7 @@ def _walls(
 def _hills(grid: Grid, pts: NDArray[np.float64], is_ground: NDArray[np.bool_], p: AutoParams) -> NDArray[np.bool_]:
     """Cells of ``grid`` whose lowest point is the lowest of a hill's cell
     (:func:`ingest.ground.hills.smooth_hills`)."""
-    cell = max(p.cell, p.hills.spacings * point_spacing(pts[:, :2]))
+    cell = max(p.cell, quantised(p.hills.spacings * point_spacing(pts[:, :2])))
     found = np.flatnonzero(smooth_hills(pts, is_ground, cell=cell, shape=p.hills))
     out = np.zeros(grid.shape, bool)
     out[grid.index(pts[found, :2])] = True

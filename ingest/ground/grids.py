@@ -124,6 +124,20 @@ class CellSort:
         return low.reshape(*self.grid.shape, n)
 
 
+LADDER = 4  # steps per doubling of a density-derived length
+
+
+def quantised(length: float) -> float:
+    """``length`` (m) rounded to the quarter-octave ladder (… 0.84, 1, 1.19, 1.41, 1.68, 2 …).
+
+    Grids sized to the measured density must come out the same when a survey is modelled in
+    blocks, whose densities differ from the whole's by a few per cent: on the ladder they do,
+    and their cells, anchored at whole multiples of their size, fall in the same places."""
+    if not np.isfinite(length) or length <= 0:
+        return float(length)
+    return float(2.0 ** (np.round(np.log2(length) * LADDER) / LADDER))
+
+
 def occupied_area(xy: NDArray[np.float64], *, block: float) -> float:
     """Area (m²) of the ``block`` × ``block`` m cells that hold a point: the extent of the data
     without its gaps and the empty corners of its bounding box."""
