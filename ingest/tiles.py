@@ -26,9 +26,28 @@ def node_grid(dtm: Raster, level: int, *, n: int = SUBGRID) -> NodeLattice:
     xs = np.arange(ix0, ix1 + 1) * s
     ys = np.arange(iy0, iy1 + 1) * s
     source = _smoothed(dtm, sigma=0.5 * s / dtm.cell) if s > dtm.cell * 1.01 else dtm
-    gx, gy = np.meshgrid(xs, ys)
-    z = source.sample(gx.ravel(), gy.ravel()).reshape(gx.shape)
+    z = _on_posts(source, xs, ys)
+    if z is None:
+        gx, gy = np.meshgrid(xs, ys)
+        z = source.sample(gx.ravel(), gy.ravel()).reshape(gx.shape)
     return NodeLattice(z, ix0, iy0, s)
+
+
+def _on_posts(raster: Raster, xs: np.ndarray, ys: np.ndarray) -> np.ndarray | None:
+    """The raster's values at the grid ``xs`` × ``ys`` (rows south to north) where every node lies
+    on a post (what a bilinear read there gives, without one), NaN beyond the raster; None where
+    the nodes fall between posts."""
+    cx, cy = raster.centres()
+    col = (xs - cx[0]) / raster.cell
+    row = (cy[0] - ys) / raster.cell
+    if not (np.allclose(col, np.rint(col), atol=1e-6) and np.allclose(row, np.rint(row), atol=1e-6)):
+        return None
+    col, row = np.rint(col).astype(np.int64), np.rint(row).astype(np.int64)
+    rows, cols = raster.shape
+    ok_c, ok_r = (col >= 0) & (col < cols), (row >= 0) & (row < rows)
+    out = np.full((len(ys), len(xs)), np.nan)
+    out[np.ix_(ok_r, ok_c)] = raster.data[np.ix_(row[ok_r], col[ok_c])]
+    return out
 
 
 def _smoothed(dtm: Raster, *, sigma: float) -> Raster:

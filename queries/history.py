@@ -92,9 +92,11 @@ def _histories(per_interval: list[tuple[str, list[dict[str, Any]]]]) -> list[dic
         return i
 
     if items:
-        tree = shapely.STRtree([g for _, g, _ in items])
-        a, b = tree.query([g for _, g, _ in items], predicate="intersects")
-        for i, j in zip(a.tolist(), b.tolist()):
+        geoms = [g for _, g, _ in items]
+        a, b = shapely.STRtree(geoms).query(geoms, predicate="intersects")
+        # regions that share ground are one history; two that only touch along an edge are not
+        shared = shapely.area(shapely.intersection(np.take(geoms, a), np.take(geoms, b))) > 1e-9
+        for i, j in zip(a[shared].tolist(), b[shared].tolist()):
             parent[root(i)] = root(j)
     groups: dict[int, list[int]] = {}
     for i in range(len(items)):

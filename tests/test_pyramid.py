@@ -149,3 +149,23 @@ def test_a_budget_the_feature_nodes_would_spend_goes_to_the_worst_errors_first()
     before = rebuild_error(tiles, corners, n=5)[pit].max()
     keep = refine(tiles, codes, ti, tj, n=5, budget=3, relief=0.1)
     assert rebuild_error(tiles, keep, n=5)[pit].max() < before / 2
+
+
+@pytest.mark.parametrize("level", [2, 4, 8, 16])
+def test_node_lattices_read_on_the_posts_are_the_bilinear_reads(level):
+    """Nodes fall on the dense model's posts: read there directly, they are what a bilinear read gives."""
+    from ingest.tiles import _on_posts, _smoothed, node_grid
+    from tdb.raster import Raster
+
+    rng = np.random.default_rng(level)
+    dtm = Raster(rng.normal(size=(203, 187)), 999.75, 2000.25, 0.5)  # posts on whole half metres, as ingest's
+    dtm.data[5:9, 7:20] = np.nan
+    g = node_grid(dtm, level)
+    xs = (g.i0 + np.arange(g.z.shape[1])) * g.spacing
+    ys = (g.j0 + np.arange(g.z.shape[0])) * g.spacing
+    gx, gy = np.meshgrid(xs, ys)
+    source = _smoothed(dtm, sigma=0.5 * g.spacing / dtm.cell) if g.spacing > dtm.cell * 1.01 else dtm
+    ref = source.sample(gx.ravel(), gy.ravel()).reshape(gx.shape)
+    assert _on_posts(source, xs, ys) is not None  # the direct read, not the bilinear one
+    np.testing.assert_array_equal(np.isnan(ref), np.isnan(g.z))
+    np.testing.assert_allclose(g.z[~np.isnan(ref)], ref[~np.isnan(ref)], atol=1e-12)
