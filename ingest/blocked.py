@@ -28,6 +28,7 @@ differ from a one-piece ingest of the same area is measured by ``tests/test_bloc
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import os
 import tempfile
 from collections.abc import Sequence
@@ -51,11 +52,12 @@ from tdb.categories import NO_DATA
 from tdb.classes import excluded
 from tdb.crs import as_crs
 from tdb.database import Database, Version, VersionInfo
-from tdb.errors import CRSError, InputError, Remedy, VersionExistsError
+from tdb.errors import CRSError, InputError, Remedy, TdbIOError, VersionExistsError
 from tdb.evidence import TileEvidence
 from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
 from tdb.stats import ReductionStats, VersionStats
+from tdb.threads import one_blas_thread
 from tdb.tiles import LEVELS, SUBGRID, level_bit
 from tdb.units import to_metres, units_of
 
@@ -67,11 +69,14 @@ CHUNK = 2_000_000  # points decoded at a time
 @dataclass(frozen=True)
 class Blocking:
     """How a survey is cut: blocks of ``block`` m with ``buffer`` m of their neighbours' points,
-    in ``workers`` processes (None: one per core)."""
+    in ``workers`` processes (None: one per core), or on the workers of the dask.distributed
+    ``scheduler`` at that address (``tcp://host:8786``): each block's points travel to a worker
+    with its job, so the workers need tdb installed but no shared disk."""
 
     block: float = BLOCK
     buffer: float = BUFFER
     workers: int | None = None
+    scheduler: str | None = None
 
     def __post_init__(self) -> None:
         coarsest = max(LEVELS)
@@ -204,12 +209,14 @@ def _model(
     blocks: list[_Block], files: list[Path], o: IngestOptions, b: Blocking, crs: Any, report: Progress
 ) -> list[_Result]:
     jobs = [(blk, path, o, crs) for blk, path in zip(blocks, files) if path.exists()]
-    workers = min(b.workers or available_cores(), len(jobs))
     report("blocks", 0, len(jobs))
+    if b.scheduler is not None:
+        return _on_cluster(jobs, b.scheduler, report)
+    workers = min(b.workers or available_cores(), len(jobs))
     results: list[_Result] = []
     if workers <= 1:
         for k, job in enumerate(jobs, start=1):
-            results += [r for r in [_one_block(*job)] if r is not None]
+            results += [r for r in [_one_block_args(job)] if r is not None]
             report("blocks", k, len(jobs))
         return results
     # spawn: a forked child would inherit the parent's threads and locks
@@ -217,6 +224,44 @@ def _model(
         for k, r in enumerate(pool.map(_one_block_args, jobs), start=1):
             if r is not None:
                 results.append(r)
+            report("blocks", k, len(jobs))
+    return results
+
+
+IN_FLIGHT = 2  # blocks sent per worker ahead of the results: the parent holds only these
+CONNECT_SECONDS = 20  # how long a scheduler may take to answer
+
+
+Job = tuple[_Block, Path, IngestOptions, Any]  # a block, its points' file, how, and the CRS
+
+
+def _on_cluster(jobs: list[Job], address: str, report: Progress) -> list[_Result]:
+    """The blocks modelled on a dask.distributed cluster, a few per worker at a time."""
+    try:
+        from distributed import Client, as_completed
+    except ImportError:
+        raise InputError("a cluster needs dask.distributed (pip install 'tdb[cluster]')") from None
+    try:
+        client = Client(address, timeout=CONNECT_SECONDS)
+    except OSError as exc:
+        raise TdbIOError(f"{address}: no dask scheduler answers ({exc})") from None
+    results: list[_Result] = []
+    with client:
+        ahead = IN_FLIGHT * max(1, len(client.scheduler_info().get("workers", {})))
+        pending = iter(jobs)
+
+        def send(job: Job) -> Any:
+            blk, path, o, crs = job
+            return client.submit(_one_block, blk, np.fromfile(path, RECORD), o, crs, str(path), pure=False)
+
+        queue = as_completed([send(job) for job in itertools.islice(pending, ahead)])
+        for k, future in enumerate(queue, start=1):
+            r = future.result()
+            if r is not None:
+                results.append(r)
+            nxt = next(pending, None)
+            if nxt is not None:
+                queue.add(send(nxt))
             report("blocks", k, len(jobs))
     return results
 
@@ -233,18 +278,19 @@ def _pilot_threshold(files: list[Path], o: IngestOptions, crs: Any, report: Prog
 
 
 def _one_block_args(job: tuple[_Block, Path, IngestOptions, Any]) -> _Result | None:
-    return _one_block(*job)
+    blk, path, o, crs = job
+    return _one_block(blk, np.fromfile(path, RECORD), o, crs, str(path))
 
 
-def _one_block(blk: _Block, path: Path, o: IngestOptions, crs: Any) -> _Result | None:
-    """Model one block from its points and keep what lies in its own square."""
-    rec = np.fromfile(path, RECORD)
+def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str) -> _Result | None:
+    """Model one block from its points (``RECORD`` rows) and keep what lies in its own square."""
     x0, y0, x1, y1 = blk.core
     own = (rec["x"] >= x0) & (rec["x"] < x1) & (rec["y"] >= y0) & (rec["y"] < y1)
     if not own.any() or len(rec) < 3:
         return None
-    cloud = from_records(rec, crs=crs, source=str(path))
-    s = survey(cloud, options=o)
+    cloud = from_records(rec, crs=crs, source=source)
+    with one_blas_thread():
+        s = survey(cloud, options=o)
     m = s.model
     levels = {}
     for level, t in m.levels.items():

@@ -124,3 +124,30 @@ def test_blocks_need_metres(scene_file, tmp_path):
     write_las(feet, dataclasses.replace(cloud, crs=CRS.from_epsg(2263)))  # NY Long Island, US feet
     with pytest.raises(CRSError, match="metres"):
         ingest_blocked(feet, tdb.open(tmp_path / "f.tdb", create=True), version="v")
+
+
+def test_blocks_modelled_on_a_dask_cluster_are_those_of_the_process_pool(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    small = tmp_path / "small.laz"
+    write_scene(small, make_scene(seed=6, size=100), density=2, seed=6)
+    db = tdb.open(tmp_path / "d.tdb", create=True)
+    cut = {"block": 48.0, "buffer": 32.0}
+    ingest_blocked(small, db, version="pool", blocking=Blocking(**cut, workers=1))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as c:
+        ingest_blocked(small, db, version="dask", blocking=Blocking(**cut, scheduler=c.scheduler_address))
+    assert db.version("dask").params["blocks"] >= 4
+    for level in LEVELS:
+        assert _codes(db, "pool", level) == _codes(db, "dask", level), level
+    np.testing.assert_array_equal(db.points("pool", level=2)[2], db.points("dask", level=2)[2])
+
+
+def test_a_scheduler_that_does_not_answer_is_one_clear_error(scene_file, tmp_path, monkeypatch):
+    pytest.importorskip("distributed")
+    import ingest.blocked as blocked
+    from tdb.errors import TdbIOError
+
+    monkeypatch.setattr(blocked, "CONNECT_SECONDS", 1)
+    db = tdb.open(tmp_path / "e.tdb", create=True)
+    with pytest.raises(TdbIOError, match="no dask scheduler answers"):
+        ingest_blocked(scene_file, db, version="v", blocking=Blocking(block=96, scheduler="tcp://127.0.0.1:9"))
+    assert db.versions() == []

@@ -29,6 +29,11 @@ def _date(_ctx: click.Context, _param: click.Parameter, value: str | None) -> dt
     "too large to model whole. A directory or a glob of tiles is always ingested so [default: 512].",
 )
 @click.option("--workers", type=int, help="Processes for a blocked ingest [default: one per core].")
+@click.option(
+    "--scheduler",
+    help="Model the blocks on a dask.distributed cluster: its scheduler's address (tcp://host:8786). "
+    "Its workers need tdb installed; the blocks' points travel with the jobs.",
+)
 @click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
 @click.option("--version", "version", required=True, help="Name of this survey in the database.")
 @click.option("--date", callback=_date, help="Acquisition date, YYYY-MM-DD.")
@@ -55,6 +60,7 @@ def command(
     assume_metres: bool,
     block: float | None,
     workers: int | None,
+    scheduler: str | None,
     crs: str | None,
     labels: str,
     exclude: tuple[int, ...],
@@ -72,11 +78,12 @@ def command(
       tdb ingest survey_2020.laz --db park.tdb --version 2020 --date 2020-04-02
       tdb ingest tiles/ --db county.tdb --version 2024            # a directory of tiles, block by block
       tdb ingest 'tiles/*.laz' --db county.tdb --version 2024 --block 1024 --workers 2
+      tdb ingest tiles/ --db county.tdb --version 2024 --scheduler tcp://10.0.0.5:8786
       tdb ingest survey_2024.laz --db park.tdb --version 2024 --replace
       tdb ingest lidarhd.laz --db ign.tdb --version 2023 --exclude-classes 7,18,65
     """
     import tdb
-    from ingest.blocked import Blocking, ingest_blocked
+    from ingest.blocked import BLOCK, Blocking, ingest_blocked
     from ingest.catalog import is_catalog
     from ingest.pipeline import IngestOptions, ingest
     from tdb.cli.progress import Bars
@@ -90,10 +97,10 @@ def command(
         flat_threshold=flat_threshold,
         exclude=exclude,
     )
-    blocked = block is not None or is_catalog(cloud)
+    blocked = block is not None or scheduler is not None or is_catalog(cloud)
     with tdb.open(db_path, create=True) as db, Bars(unit="step") as bars:
         if blocked:
-            blocking = Blocking(**({"block": block} if block else {}), workers=workers)
+            blocking = Blocking(block=block or BLOCK, workers=workers, scheduler=scheduler)
             v = ingest_blocked(
                 str(cloud),
                 db,
