@@ -21,7 +21,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
-from ingest.ground.grids import CellSort, Grid, heights_of, lowest_per_cell, occupied_area, quantised
+from ingest.ground.grids import CellSort, Grid, heights_of, lowest_per_cell, occupied_area
 from ingest.ground.morphology import progressive_opening
 from tdb.fill import fill_nearest
 
@@ -31,7 +31,7 @@ def _block_floor(xyz: NDArray[np.float64], *, k: int, rank: int) -> NDArray[np.f
     xy = xyz[:, :2]
     # density over the occupied area, so gaps and an irregular outline do not inflate the cells
     density = len(xyz) / occupied_area(xy, block=4.0)
-    grid = Grid.covering(xy, max(quantised(float(np.sqrt((k + 1) / (9.0 * density)))), 1e-3))
+    grid = Grid.covering(xy, max(float(np.sqrt((k + 1) / (9.0 * density))), 1e-3))
     low = CellSort.of(grid, xyz).lowest_z(xyz, rank + 1)
     padded = np.pad(low, ((1, 1), (1, 1), (0, 0)), constant_values=np.inf)
     rows, cols = grid.shape
