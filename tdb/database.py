@@ -71,13 +71,25 @@ def is_database(path: str | os.PathLike[str]) -> bool:
         return False
 
 
-def open(path: str | os.PathLike[str], *, create: bool = False) -> Database:
+def writable(path: str | os.PathLike[str]) -> bool:
+    """Whether a database at ``path`` (a file, or a URL: assumed so) can be written here."""
+    text = str(path)
+    if "://" in text:
+        return True
+    p = Path(text).resolve()
+    return os.access(p, os.W_OK) and os.access(p.parent, os.W_OK)
+
+
+def open(path: str | os.PathLike[str], *, create: bool = False, readonly: bool = False) -> Database:
     """Open a terrain database: an SQLite file path or a SQLAlchemy URL (``postgresql://…``).
 
     Parameters
     ----------
     path : file path or database URL.
     create : make a new database where none exists (otherwise that is an error).
+    readonly : open an SQLite file without writing to it, not even its journal mode or an
+        upgrade of its schema; on a read-only filesystem (a DVD, a read-only mount) it is read
+        as immutable. Writes then fail with a :class:`DatabaseError`.
 
     Raises
     ------
@@ -99,10 +111,14 @@ def open(path: str | os.PathLike[str], *, create: bool = False) -> Database:
         elif p.stat().st_size > 0 and not is_database(p):
             raise DatabaseError(f"{p}: not a tdb database (not an SQLite file)")
         url = f"sqlite:///{p}"
+        if readonly and p.exists() and not writable(p):
+            # no -wal or -shm can be made beside a file on read-only media: read it as it stands
+            url = f"sqlite:///{p.resolve().as_uri()}?mode=ro&immutable=1&uri=true"
     engine = create_engine(url)
     if engine.dialect.name == "sqlite":
-        event.listen(engine, "connect", _sqlite_pragmas)
-    db = Database(engine, text)
+        # read only, the connection refuses writes and leaves the journal mode as it finds it
+        event.listen(engine, "connect", _read_only_pragmas if readonly else _sqlite_pragmas)
+    db = Database(engine, text, readonly=readonly)
     db._prepare(create=create)
     return db
 
@@ -127,6 +143,12 @@ def _execute_rows(cursor: Any, sql: str, cols: list[list[Any]]) -> None:
         cursor.execute(f"{head} VALUES {', '.join([row] * (count - whole))}", flat[whole * width :])
 
 
+def _read_only_pragmas(dbapi_conn: Any, _record: Any) -> None:
+    cur = dbapi_conn.cursor()
+    cur.execute("PRAGMA query_only=ON")
+    cur.close()
+
+
 def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
     cur = dbapi_conn.cursor()
     cur.execute("PRAGMA journal_mode=WAL")  # readers are not blocked by an ingest
@@ -140,9 +162,11 @@ def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
 class Database:
     """A terrain database. Use :func:`tdb.open` to get one."""
 
-    def __init__(self, engine: Engine, name: str):
+    def __init__(self, engine: Engine, name: str, *, readonly: bool = False):
         self.engine = engine
         self.name = name
+        self.readonly = readonly
+        self._tables = set(schema.metadata.tables)  # what this file holds (an older one, read only, less)
 
     def __repr__(self) -> str:
         return f"<tdb.Database {self.name!r}>"
@@ -187,8 +211,13 @@ class Database:
             raise DatabaseError(
                 f"{self.name}: schema version {found} is newer than this tdb ({schema.SCHEMA_VERSION})"
             )
+        if found < 2 and self.readonly:
+            raise DatabaseError(f"{self.name}: schema version {found}; open it once writable to upgrade it")
         if found < schema.SCHEMA_VERSION:
-            self._upgrade(found)
+            if self.readonly:  # the tables it lacks read as empty
+                self._tables = names
+            else:
+                self._upgrade(found)
 
     def _upgrade(self, found: int) -> None:
         """Add the tables a newer schema has: from 1, the block tables, filled from the rows of every
@@ -503,7 +532,10 @@ class Database:
         """The ground evidence of the 2 m tiles of ``version`` overlapping ``bbox``
         (:mod:`tdb.evidence`); empty for a version stored before evidence was kept."""
         eb = schema.evidence_blocks
-        q = select(eb.c.bx, eb.c.by, eb.c.data).where(eb.c.version == self.version(version).id)
+        vid = self.version(version).id
+        if eb.name not in self._tables:
+            return TileEvidence.empty()
+        q = select(eb.c.bx, eb.c.by, eb.c.data).where(eb.c.version == vid)
         if bbox is not None:
             side = blocks.TILES_PER_BLOCK * 2
             q = q.where(
@@ -521,9 +553,10 @@ class Database:
         """The shift stored for ``after`` against ``before`` found with ``setting`` (a text that
         names how it was found), as its JSON object; None where none is stored."""
         c = schema.coregistrations.c
-        q = select(c.shift).where(
-            c.before == self.version(before).id, c.after == self.version(after).id, c.setting == setting
-        )
+        a, b = self.version(before).id, self.version(after).id
+        if schema.coregistrations.name not in self._tables:
+            return None
+        q = select(c.shift).where(c.before == a, c.after == b, c.setting == setting)
         rows = self._fetch(q)
         return json.loads(rows[0][0]) if rows else None
 

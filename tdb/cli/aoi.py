@@ -37,7 +37,7 @@ def command(
     from tdb.geotiff import write_geotiff
     from tdb.pictures import area_picture
 
-    with tdb.open(db_path) as db:
+    with tdb.open(db_path, readonly=True) as db:
         area = db.aoi(bbox, level=level, version=version)
         crs = db.crs(area.version)
     mesh = area_mesh(area)

@@ -70,7 +70,8 @@ def command(
     from queries.dod import describe, difference_of_surfaces
 
     check_output(fmt, out, layer=layer, append=append)
-    with tdb.open(db_path) as db:
+    # the shift found is kept for later queries where the database can be written
+    with tdb.open(db_path, readonly=not tdb.database.writable(db_path)) as db:
         plan = check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=site(db, before))
         if plan:
             click.echo(f"note: {plan}; co-registration finds what is left", err=True)

@@ -40,7 +40,7 @@ def _database_info(path: Path, as_json: bool) -> None:
     import tdb
     from tdb.crs import describe, horizontal_part, vertical_part
 
-    with tdb.open(path) as db:
+    with tdb.open(path, readonly=True) as db:
         versions = db.versions()
         crs = {v.name: db.crs(v.name) for v in versions}
         doc = {

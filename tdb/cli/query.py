@@ -41,7 +41,7 @@ def command(
 
     check_output(fmt, out, layer=layer, append=append)
     query = parse(text)
-    with tdb.open(db_path) as db:
+    with tdb.open(db_path, readonly=True) as db:
         with Bars(unit="line") as bars:
             features = run(db, text, progress=bars)
         crs = db.crs(query.version)
