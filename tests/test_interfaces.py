@@ -150,3 +150,23 @@ def test_feature_collections_name_their_crs_by_epsg_urn():
     assert doc["crs"]["properties"]["name"] == "urn:ogc:def:crs:EPSG::25832"
     assert feature_collection([f], "EPSG:2154")["crs"]["properties"]["name"].endswith("::2154")
     assert "crs" not in feature_collection([f], None)
+    # a compound CRS with no one code (UTM 17N on NAD83 with CGVD28 heights): its horizontal part's,
+    # so that GIS tools do not read UTM metres as degrees
+    compound = CRS.from_user_input("EPSG:26917+5713")
+    assert compound.to_epsg() is None
+    assert feature_collection([f], compound)["crs"]["properties"]["name"] == "urn:ogc:def:crs:EPSG::26917"
+
+
+def test_geojson_holds_no_nan():
+    import json
+
+    import shapely
+
+    from tdb.geojson import feature, feature_collection
+
+    f = feature(shapely.Point(1, 2), {"depth": float("nan"), "width": 2.5, "sides": [float("inf"), 1.0]})
+    doc = feature_collection([f], None, members={"coregistration": {"nmad": float("nan")}})
+    text = json.dumps(doc, allow_nan=False)  # raises on NaN
+    back = json.loads(text)
+    assert back["features"][0]["properties"] == {"depth": None, "width": 2.5, "sides": [None, 1.0]}
+    assert back["coregistration"] == {"nmad": None}

@@ -82,7 +82,7 @@ def render(
     from tdb.geojson import feature_collection
 
     if fmt is OutputFormat.GEOJSON:
-        return json.dumps(feature_collection(features, crs, members=members))
+        return json.dumps(feature_collection(features, crs, members=members), allow_nan=False)
     rows = [f["properties"] for f in features]
     keys = sorted({k for r in rows for k in r})
     if fmt is OutputFormat.CSV:
