@@ -51,7 +51,7 @@ from ingest.readers import RECORD, from_records, in_box, iter_records
 from tdb.categories import NO_DATA
 from tdb.classes import excluded
 from tdb.crs import as_crs
-from tdb.database import Database, Version, VersionInfo
+from tdb.database import Database, Version, VersionInfo, check_version_name
 from tdb.errors import CRSError, InputError, Remedy, TdbIOError, VersionExistsError
 from tdb.evidence import TileEvidence
 from tdb.progress import Progress, or_silent
@@ -131,6 +131,7 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
         If the survey is not in projected coordinates in metres.
     """
     o, b = options or IngestOptions(), blocking or Blocking()
+    check_version_name(version)
     if not replace and any(v.name == version for v in db.versions()):
         raise VersionExistsError(f"{db.name}: version {version!r} exists", remedy=Remedy.REPLACE)
     report = or_silent(progress)

@@ -20,14 +20,14 @@ from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
 from tdb.classes import NOISE, excluded, parse_classes, user_classes
 from tdb.cloud import PointCloud
-from tdb.database import Database, Version, VersionInfo
-from tdb.errors import Remedy, VersionExistsError
+from tdb.database import Database, Version, VersionInfo, check_version_name
+from tdb.errors import InputError, Remedy, VersionExistsError
 from tdb.evidence import TileEvidence
 from tdb.options import GroundMethod, LabelScheme, parse
 from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
 from tdb.stats import VersionStats
-from tdb.tiles import SUBGRID
+from tdb.tiles import LEVELS, SUBGRID, node_spacing
 from tdb.units import as_crs, to_metres
 
 MIN_FLAT = 0.10  # m: below this a threshold would call noise a form
@@ -72,6 +72,16 @@ class IngestOptions:
         object.__setattr__(self, "labels", parse(LabelScheme, self.labels))
         object.__setattr__(self, "method", parse(GroundMethod, self.method))
         object.__setattr__(self, "exclude", parse_classes(self.exclude))
+        finest = node_spacing(min(LEVELS))
+        steps = finest / self.resolution if np.isfinite(self.resolution) and self.resolution > 0 else 0.0
+        if steps < 1 - 1e-9 or abs(steps - round(steps)) > 1e-6:
+            raise InputError(
+                f"the dense model's resolution must divide the finest node spacing ({finest} m: "
+                f"{finest} m, {finest / 2} m, {finest / 4} m …), got {self.resolution}"
+            )
+        t = self.flat_threshold
+        if t is not None and not (np.isfinite(t) and t >= 0):
+            raise InputError(f"a flat threshold is a height range of 0 m or more, got {t}")
 
 
 def flat_threshold_for(noise: float) -> float:
@@ -123,6 +133,7 @@ def ingest(
         If ``version`` exists and ``replace`` is false (checked before any work).
     """
     o = options or IngestOptions()
+    check_version_name(version)
     if not replace and any(v.name == version for v in db.versions()):
         raise VersionExistsError(f"{db.name}: version {version!r} exists", remedy=Remedy.REPLACE)
     report = or_silent(progress)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import datetime as dt
 import json
 import os
+import unicodedata
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -26,7 +27,7 @@ from sqlalchemy.exc import IntegrityError, OperationalError
 
 from tdb import blocks, schema
 from tdb.categories import all_categories
-from tdb.errors import DatabaseError, Remedy, TdbIOError, VersionExistsError, VersionNotFoundError
+from tdb.errors import DatabaseError, InputError, Remedy, TdbIOError, VersionExistsError, VersionNotFoundError
 from tdb.evidence import TileEvidence
 from tdb.progress import Progress, or_silent
 from tdb.stats import VersionStats
@@ -69,6 +70,21 @@ def is_database(path: str | os.PathLike[str]) -> bool:
             return fh.read(16) == SQLITE_MAGIC
     except OSError:
         return False
+
+
+MAX_NAME = 200  # characters of a version's name (the schema's column)
+
+
+def check_version_name(name: str) -> str:
+    """``name`` where it can name a version: some visible text, no control characters (a newline,
+    a tab), at most :data:`MAX_NAME` characters; an :class:`InputError` otherwise."""
+    if not isinstance(name, str) or not name.strip():
+        raise InputError(f"a version needs a name with something in it, got {name!r}")
+    if any(unicodedata.category(ch) == "Cc" for ch in name):
+        raise InputError(f"a version's name holds no control characters (newlines, tabs), got {name!r}")
+    if len(name) > MAX_NAME:
+        raise InputError(f"a version's name has at most {MAX_NAME} characters, got {len(name):,}")
+    return name
 
 
 def writable(path: str | os.PathLike[str]) -> bool:
@@ -316,6 +332,7 @@ class Database:
         VersionExistsError
             If ``name`` exists and ``replace`` is false.
         """
+        check_version_name(name)
         meta = info or VersionInfo()
         with self.transaction() as conn:
             old = conn.execute(select(schema.versions.c.id).where(schema.versions.c.name == name)).scalar()
@@ -323,17 +340,21 @@ class Database:
                 if not replace:
                     raise VersionExistsError(f"{self.name}: version {name!r} exists", remedy=Remedy.REPLACE)
                 self._delete(conn, old)
-            vid = conn.execute(
-                schema.versions.insert().values(
-                    name=name,
-                    acquired=meta.acquired,
-                    source=meta.source,
-                    crs=meta.crs,
-                    params=json.dumps(meta.params),
-                    stats=json.dumps(meta.stats.to_json() if meta.stats else {}, default=float),
-                    created=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
-                )
-            ).inserted_primary_key
+            try:
+                inserted = conn.execute(
+                    schema.versions.insert().values(
+                        name=name,
+                        acquired=meta.acquired,
+                        source=meta.source,
+                        crs=meta.crs,
+                        params=json.dumps(meta.params),
+                        stats=json.dumps(meta.stats.to_json() if meta.stats else {}, default=float),
+                        created=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+                    )
+                ).inserted_primary_key
+            except IntegrityError:  # another ingest of the same name committed first
+                raise VersionExistsError(f"{self.name}: version {name!r} exists", remedy=Remedy.REPLACE) from None
+            vid = inserted
             assert vid is not None
             vid = vid[0]
             report = _RowCount(or_silent(progress), sum(len(t[0]) for t in levels.values()) + len(points[0]))

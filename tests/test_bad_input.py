@@ -1,0 +1,67 @@
+"""Bad values are refused before any work, in one clear line, and nothing is stored."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from click.testing import CliRunner
+
+import tdb
+from ingest.pipeline import IngestOptions, ingest
+from tdb.cli import main
+from tdb.errors import InputError, VersionExistsError
+
+
+@pytest.mark.parametrize("resolution", [3.0, 0.3, 0.0, -0.5, math.nan, math.inf, 0.7])
+def test_a_resolution_off_the_node_lattice_is_refused(resolution):
+    with pytest.raises(InputError, match="resolution"):
+        IngestOptions(resolution=resolution)
+
+
+@pytest.mark.parametrize("resolution", [0.5, 0.25, 0.125])
+def test_resolutions_that_divide_the_node_spacing_are_taken(resolution):
+    assert IngestOptions(resolution=resolution).resolution == resolution
+
+
+@pytest.mark.parametrize("threshold", [-1.0, math.nan, math.inf])
+def test_a_flat_threshold_must_be_a_height_range(threshold):
+    with pytest.raises(InputError, match="flat threshold"):
+        IngestOptions(flat_threshold=threshold)
+
+
+@pytest.mark.parametrize("name", ["", "   ", "a\nb", "tab\there", "x" * 201, "\x00"])
+def test_a_version_name_must_be_visible_text(tmp_path, small_cloud, name):
+    db = tdb.open(tmp_path / "n.tdb", create=True)
+    with pytest.raises(InputError, match="name"):
+        ingest(small_cloud, db, version=name)
+    assert db.versions() == []
+
+
+def test_the_command_line_says_it_in_one_line_and_stores_nothing(tmp_path, small_cloud):
+    from ingest.synth import make_scene
+    from ingest.synth.writer import write_scene
+
+    path = tmp_path / "s.laz"
+    write_scene(path, make_scene(seed=2, size=100), density=1, seed=2)
+    db_path = tmp_path / "c.tdb"
+    for args in (
+        ["ingest", str(path), "--db", str(db_path), "--version", " "],
+        ["ingest", str(path), "--db", str(db_path), "--version", "v", "--resolution", "3"],
+        ["ingest", str(path), "--db", str(db_path), "--version", "v", "--flat-threshold", "nan"],
+    ):
+        r = CliRunner().invoke(main, args)
+        assert r.exit_code != 0
+        lines = [line for line in r.output.splitlines() if line.strip()]
+        assert lines and lines[-1].startswith("tdb: error:") and "Traceback" not in r.output, r.output
+    assert not db_path.exists() or tdb.open(db_path).versions() == []
+
+
+def test_an_ingest_of_a_name_another_ingest_took_meanwhile_says_so(tmp_path, small_cloud, monkeypatch):
+    """The name is checked before the work and again in the writing transaction: an ingest of the
+    same name that committed in between is a VersionExistsError, not a raw constraint error."""
+    db = tdb.open(tmp_path / "r.tdb", create=True)
+    ingest(small_cloud, db, version="v")
+    monkeypatch.setattr(tdb.database.Database, "versions", lambda self: [])  # the first check misses it
+    with pytest.raises(VersionExistsError):
+        ingest(small_cloud, db, version="v")
