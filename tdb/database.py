@@ -421,6 +421,45 @@ class Database:
         finally:
             cursor.close()
 
+    def rename_version(self, name: str, new: str) -> Version:
+        """Give version ``name`` the name ``new``, in one transaction.
+
+        Raises
+        ------
+        VersionExistsError
+            If a version is named ``new`` already.
+        """
+        check_version_name(new)
+        vid = self.version(name).id
+        if any(v.name == new for v in self.versions()):
+            raise VersionExistsError(f"{self.name}: version {new!r} exists")
+        with self.transaction() as conn:
+            conn.execute(schema.versions.update().where(schema.versions.c.id == vid).values(name=new))
+        return self.version(new)
+
+    def check(self) -> DatabaseCheck:
+        """Whether the file is whole (SQLite's integrity check) and every version holds the rows
+        its figures say: tiles per level, kept points. Reads only."""
+        integrity = "not checked (a server database)"
+        if self.engine.dialect.name == "sqlite":
+            try:
+                with self.engine.connect() as conn:
+                    found = [str(r[0]) for r in conn.exec_driver_sql("PRAGMA integrity_check").fetchall()]
+            except SADatabaseError as exc:
+                found = [str(exc.orig)]
+            integrity = "ok" if found == ["ok"] else "damaged: " + "; ".join(found[:3])
+        checks = []
+        try:
+            for v in self.versions():
+                tiles = {lv: self.count(v.name, table=t.name) for lv, t in schema.level_tables.items()}
+                points = self.count(v.name)
+                want = v.stats.reduction
+                ok = points == want.kept_points and all(tiles[lv] == n for lv, n in want.tiles.items())
+                checks.append(VersionCheck(v.name, points, tiles, ok))
+        except (SADatabaseError, DatabaseError) as exc:
+            integrity = f"damaged: {getattr(exc, 'orig', exc)}"
+        return DatabaseCheck(integrity, self.schema_version(), checks)
+
     def delete_version(self, name: str) -> None:
         vid = self.version(name).id
         with self.transaction() as conn:
@@ -605,6 +644,29 @@ class Database:
         if len(vs) != 1:
             raise DatabaseError(f"{self.name}: {len(vs)} versions; name one ({', '.join(v.name for v in vs)})")
         return vs[0].name
+
+
+@dataclass(frozen=True)
+class VersionCheck:
+    """One version's rows as counted, and whether they are those its figures record."""
+
+    name: str
+    points: int
+    tiles: dict[int, int]
+    ok: bool
+
+
+@dataclass(frozen=True)
+class DatabaseCheck:
+    """What :meth:`Database.check` found."""
+
+    integrity: str
+    schema_version: int
+    versions: list[VersionCheck]
+
+    @property
+    def ok(self) -> bool:
+        return self.integrity in ("ok", "not checked (a server database)") and all(v.ok for v in self.versions)
 
 
 @dataclass(frozen=True)

@@ -62,9 +62,9 @@ def main(ctx: click.Context, debug: bool) -> None:
 
 
 def _register() -> None:
-    from tdb.cli import aoi, categories, diff, ground, info, ingest, query, synth
+    from tdb.cli import aoi, categories, check, diff, ground, info, ingest, query, rename, rm, synth
 
-    for module in (info, synth, ground, ingest, aoi, categories, query, diff):
+    for module in (info, synth, ground, ingest, aoi, categories, query, diff, rm, rename, check):
         main.add_command(module.command)
 
 

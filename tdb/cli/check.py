@@ -1,0 +1,37 @@
+"""``tdb check``: is a terrain database whole?"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+
+import click
+
+
+@click.command("check")
+@click.argument("db_path", type=click.Path(path_type=Path))
+@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+def command(db_path: Path, as_json: bool) -> None:
+    """Check a terrain database without writing to it: the file's integrity (SQLite's own check),
+    its schema version, and whether every version holds the tiles and points its figures record.
+    Exits non-zero where anything is wrong.
+
+    \b
+    Examples:
+      tdb check park.tdb
+      tdb check park.tdb --json
+    """
+    import tdb
+
+    with tdb.open(db_path, readonly=True) as db:
+        report = db.check()
+    if as_json:
+        click.echo(json.dumps({**asdict(report), "ok": report.ok}, indent=2))
+    else:
+        click.echo(f"{db_path}: schema {report.schema_version}, integrity {report.integrity}")
+        for v in report.versions:
+            tiles = "/".join(str(v.tiles[lv]) for lv in sorted(v.tiles))
+            click.echo(f"- {v.name}: {v.points:,} points, tiles {tiles}: {'ok' if v.ok else 'rows missing'}")
+    if not report.ok:
+        raise SystemExit(1)

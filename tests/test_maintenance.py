@@ -1,0 +1,78 @@
+"""Everyday operations on a database: delete or rename a version, check the file."""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+
+import pytest
+from click.testing import CliRunner
+
+import tdb
+from ingest.pipeline import ingest
+from tdb.cli import main
+
+
+@pytest.fixture()
+def park(tmp_path, small_cloud):
+    path = tmp_path / "park.tdb"
+    db = tdb.open(path, create=True)
+    ingest(small_cloud, db, version="A")
+    ingest(small_cloud, db, version="B")
+    db.close()
+    return path
+
+
+def _run(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def test_rm_deletes_one_version_and_leaves_the_other(park):
+    r = _run("rm", "A", "--db", park)
+    assert r.exit_code == 0, r.output
+    db = tdb.open(park)
+    assert [v.name for v in db.versions()] == ["B"]
+    assert db.count("B") > 0 and len(db.evidence("B")) > 0
+    r = _run("rm", "A", "--db", park)
+    assert r.exit_code != 0 and "no version 'A'" in r.output and "Traceback" not in r.output
+
+
+def test_rename_keeps_the_model_and_refuses_a_taken_name(park):
+    before = tdb.open(park).count("A")
+    assert _run("rename", "A", "2019", "--db", park).exit_code == 0
+    db = tdb.open(park)
+    assert [v.name for v in db.versions()] == ["2019", "B"]
+    assert db.count("2019") == before
+    r = _run("rename", "2019", "B", "--db", park)
+    assert r.exit_code != 0 and "exists" in r.output
+    r = _run("rename", "2019", " ", "--db", park)
+    assert r.exit_code != 0 and "name" in r.output
+
+
+def test_check_passes_a_whole_database(park):
+    r = _run("check", park, "--json")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.output)
+    assert doc["ok"] and doc["integrity"] == "ok" and [v["name"] for v in doc["versions"]] == ["A", "B"]
+
+
+def test_check_finds_missing_rows(park):
+    con = sqlite3.connect(park)
+    vid = con.execute("SELECT id FROM versions WHERE name = 'B'").fetchone()[0]
+    xg, yg = con.execute("SELECT xg, yg FROM c4 WHERE version = ? LIMIT 1", (vid,)).fetchone()
+    con.execute("DELETE FROM c4 WHERE version = ? AND xg = ? AND yg = ?", (vid, xg, yg))
+    con.commit()
+    con.close()
+    r = _run("check", park)
+    assert r.exit_code == 1
+    assert "B:" in r.output and "rows missing" in r.output
+
+
+def test_check_finds_a_damaged_file(park):
+    data = bytearray(park.read_bytes())
+    middle = len(data) // 2
+    data[middle : middle + 4096] = bytes(range(256)) * 16
+    park.write_bytes(bytes(data))
+    r = _run("check", park)
+    assert r.exit_code != 0 and "Traceback" not in r.output
+    assert "damaged" in r.output or "malformed" in r.output
