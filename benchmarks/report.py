@@ -400,13 +400,24 @@ def epochs_section(out: list[str]) -> None:
         sh = r["shift"]
         found = "—" if sh["dz"] is None else f"{sh['dx']:+.3f}, {sh['dy']:+.3f}, {sh['dz']:+.3f}"
         applied = ", ".join(k for k in ("horizontal", "vertical") if sh[f"{k}_applied"]) or "none"
+        label = "auto, the 2019 survey 0.40 m lower" if method == "datum" else method
+        seconds = f"{r['coregister_s']:.2f}" if "coregister_s" in r else "—"
         out.append(
-            f"| {method} | {found} | {applied} | **{r['stable_reported_pct']:.1f} %** of {r['stable_cells']:,} "
+            f"| {label} | {found} | {applied} | **{r['stable_reported_pct']:.1f} %** of {r['stable_cells']:,} "
             f"| **{r['changed_reported_pct']:.1f} %** of {r['changed_cells']:,} | {r['reported_m2']:,.0f} "
-            f"| {r['coregister_s']:.2f} |"
+            f"| {seconds} |"
         )
     if doc.get("providers"):
-        out += ["", "Targets: stable cells reported changed ≤ 2 %; changed cells inside regions ≥ 90 %.", ""]
+        out += ["", "Targets: stable cells reported changed ≤ 2 %; changed cells inside regions ≥ 90 %."]
+        datum = doc["providers"].get("datum")
+        if datum:
+            out.append(
+                "The 2019 survey moved 0.40 m down and declaring no vertical CRS (as a later survey of the "
+                "park that we hold back): its largest region covers "
+                f"{100 * datum['largest_region_share_of_extent']:.1f} % of the site's extent "
+                f"({datum['largest_region_m2']:,.0f} m²; no region may span the site)."
+            )
+        out.append("")
     out += [
         f"- Level of detection (95 %): {doc['lod_m']:.3f} m; {doc['regions']} changed regions; diff of the whole "
         f"area ({doc['tiles']:,} 2 m tiles) in {doc['diff_s']:.2f} s (median of three).",
