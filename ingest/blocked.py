@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 
 from ingest.catalog import Box, Catalog, is_catalog, open_catalog
 from ingest.ground import classify_ground
+from ingest.ground.outliers import DENSITY_BLOCK
 from ingest.ground.tiling import available_cores, one_blas_thread_here
 from ingest.noise import ground_noise
 from ingest.pipeline import IngestOptions, flat_threshold_for, median_sigma, seen_pct, survey
@@ -58,7 +59,7 @@ from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
 from tdb.stats import ReductionStats, VersionStats
 from tdb.threads import one_blas_thread
-from tdb.tiles import LEVELS, SUBGRID, level_bit
+from tdb.tiles import LEVELS, SUBGRID, level_bit, tile_key
 from tdb.units import to_metres, units_of
 
 BLOCK = 512.0  # m: side of a block; a multiple of the coarsest tile (16 m)
@@ -140,7 +141,9 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     _check_metric(crs)
     blocks = _blocks(catalog.bounds, b)
     with tempfile.TemporaryDirectory(prefix="tdb-blocks-") as tmp:
-        files = _scatter(catalog, blocks, Path(tmp), report)
+        files, density = _scatter(catalog, blocks, Path(tmp), report, exclude=o.exclude)
+        if o.density is None and density > 0:
+            o = dataclasses.replace(o, density=density)
         if o.flat_threshold is None:
             o = dataclasses.replace(o, flat_threshold=_pilot_threshold(files, o, crs, report))
         results = _model(blocks, files, o, b, crs, report)
@@ -181,15 +184,22 @@ def _blocks(bounds: Box, b: Blocking) -> list[_Block]:
     return out
 
 
-def _scatter(catalog: Catalog, blocks: list[_Block], tmp: Path, report: Progress) -> list[Path]:
+def _scatter(
+    catalog: Catalog, blocks: list[_Block], tmp: Path, report: Progress, *, exclude: tuple[int, ...]
+) -> tuple[list[Path], float]:
     """One pass over the input: every point appended to the file of each block whose buffered
-    box holds it."""
+    box holds it; and the survey's point density as the ground filter measures it on the points
+    it sees (those not of the ``exclude`` classes), over the whole survey, once."""
     files = [tmp / f"block{k}.bin" for k in range(len(blocks))]
     grown = np.array([blk.grown for blk in blocks])
     done, total = 0, catalog.points
+    seen, cells = 0, []
     report("reading", 0, total)
     for f in catalog.files:
         for rec in iter_records(f.path, chunk_size=CHUNK):
+            use = ~excluded(rec["c"], exclude)
+            seen += int(use.sum())
+            cells.append(np.unique(tile_key(*(np.floor(rec[a][use] / DENSITY_BLOCK) for a in "xy"))))
             for k in _touched(grown, f.bounds):
                 inside = in_box(rec, tuple(grown[k]))
                 if inside.any():
@@ -197,7 +207,8 @@ def _scatter(catalog: Catalog, blocks: list[_Block], tmp: Path, report: Progress
                         rec[inside].tofile(fh)
             done += len(rec)
             report("reading", done, total)
-    return files
+    occupied = len(np.unique(np.concatenate(cells))) * DENSITY_BLOCK**2 if cells else 0.0
+    return files, seen / occupied if occupied else 0.0
 
 
 def _touched(grown: NDArray[np.float64], box: Box) -> NDArray[np.intp]:
@@ -273,7 +284,7 @@ def _pilot_threshold(files: list[Path], o: IngestOptions, crs: Any, report: Prog
     report("ground noise", 0, 1)
     fullest = max((p for p in files if p.exists()), key=lambda p: p.stat().st_size)
     cloud = from_records(np.fromfile(fullest, RECORD), crs=crs, source=str(fullest))
-    ground = classify_ground(to_metres(cloud), method=o.method, exclude=o.exclude)
+    ground = classify_ground(to_metres(cloud), method=o.method, exclude=o.exclude, density=o.density)
     report("ground noise", 1, 1)
     return flat_threshold_for(ground_noise(cloud.xyz[ground]))
 

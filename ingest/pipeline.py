@@ -57,6 +57,8 @@ class IngestOptions:
     spacing (m), ``flat_threshold`` the height range (m) under which a tile is flat (None: from
     the measured ground noise). Points of the ``exclude`` classes (codes, or text like
     ``"7,18,65"``) are never ground; the default is ASPRS noise (:data:`tdb.classes.NOISE`).
+    ``density`` is the survey's points per m² (None: measured), given where a survey is
+    modelled in parts.
     """
 
     crs: Any = None
@@ -66,6 +68,7 @@ class IngestOptions:
     resolution: float = DEFAULT_RESOLUTION
     flat_threshold: float | None = None
     exclude: tuple[int, ...] = NOISE
+    density: float | None = None
 
     def __post_init__(self) -> None:
         # user text is accepted and checked once, here
@@ -98,7 +101,7 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
     report = or_silent(progress)
     report("units", 0, 1)
     metric = to_metres(cloud, assume_metres=o.assume_metres)
-    ground = classify_ground(metric, method=o.method, progress=report, exclude=o.exclude)
+    ground = classify_ground(metric, method=o.method, progress=report, exclude=o.exclude, density=o.density)
     report("dense model", 0, 1)
     gxyz = metric.xyz[ground]
     dtm = dense_model(gxyz, resolution=o.resolution, crs=metric.crs)

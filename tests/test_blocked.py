@@ -151,3 +151,20 @@ def test_a_scheduler_that_does_not_answer_is_one_clear_error(scene_file, tmp_pat
     with pytest.raises(TdbIOError, match="no dask scheduler answers"):
         ingest_blocked(scene_file, db, version="v", blocking=Blocking(block=96, scheduler="tcp://127.0.0.1:9"))
     assert db.versions() == []
+
+
+def test_blocks_size_their_outlier_test_to_the_whole_survey(scene_file, tmp_path):
+    """The scatter measures the density the ground filter would measure on the whole survey."""
+    from ingest.blocked import _blocks, _scatter
+    from ingest.catalog import open_catalog
+    from ingest.ground.outliers import point_density
+    from ingest.readers import read
+    from tdb.classes import NOISE, excluded
+
+    catalog = open_catalog([scene_file])
+    _, density = _scatter(
+        catalog, _blocks(catalog.bounds, Blocking(block=96)), tmp_path, lambda *a: None, exclude=NOISE
+    )
+    cloud = read(scene_file)
+    seen = ~excluded(cloud.classification, NOISE)
+    assert density == pytest.approx(point_density(cloud.xyz[seen, :2]), rel=1e-12)

@@ -28,6 +28,7 @@ def classify_ground(
     method: str | GroundMethod = "auto",
     progress: Progress | None = None,
     exclude: Iterable[int] = NOISE,
+    density: float | None = None,
 ) -> NDArray[np.bool_]:
     """Ground mask of a point cloud (coordinates in metres).
 
@@ -40,6 +41,8 @@ def classify_ground(
         other filters run whole: once, with (1, 1), at the end); see :mod:`tdb.progress`.
     exclude : class codes of points the filter never sees and never calls ground
         (default ASPRS noise, 7 and 18; see :mod:`tdb.classes`). Arrays carry no classes.
+    density : the survey's points per m² the filter sizes its outlier test to (of the points it
+        sees: :func:`ingest.ground.outliers.point_density`); None: measured on them.
 
     Raises
     ------
@@ -51,26 +54,28 @@ def classify_ground(
     drop = excluded(cloud.classification, exclude)
     if not drop.any():
         check_spread(cloud)
-        return _ground(cloud, m, progress)
+        return _ground(cloud, m, progress, density)
     use = np.flatnonzero(~drop)
     kept = cloud.take(use)
     check_spread(kept)
     ground = np.zeros(len(drop), bool)
-    ground[use] = _ground(kept, m, progress)
+    ground[use] = _ground(kept, m, progress, density)
     return ground
 
 
-def _ground(cloud: PointCloud, m: GroundMethod, progress: Progress | None) -> NDArray[np.bool_]:
+def _ground(
+    cloud: PointCloud, m: GroundMethod, progress: Progress | None, density: float | None
+) -> NDArray[np.bool_]:
     xyz = cloud.xyz
     report = or_silent(progress)
     report(STEP, 0, 1)
     if m is GroundMethod.AUTO:
-        ground = auto_ground(xyz, returns=(cloud.return_number, cloud.number_of_returns))
+        ground = auto_ground(xyz, returns=(cloud.return_number, cloud.number_of_returns), density=density)
         report(STEP, 1, 1)
         return ground
     # The papers have no outlier step; both use the default filter's (see docs/ground.md):
     # Sohn's downward step would make a 25 m deep multipath cluster a TIN vertex (samp41).
-    out = low_outliers(xyz) | deep_pits(xyz)
+    out = low_outliers(xyz, density=density) | deep_pits(xyz)
     ground = np.zeros(len(xyz), bool)
     keep = np.flatnonzero(~out)
     if m is GroundMethod.SOHN:

@@ -90,6 +90,7 @@ def auto_ground(
     *,
     params: AutoParams | None = None,
     returns: tuple[NDArray[np.integer[Any]], NDArray[np.integer[Any]]] | None = None,
+    density: float | None = None,
 ) -> NDArray[np.bool_]:
     """Ground mask by the default filter (one parameter set for all data).
 
@@ -100,6 +101,8 @@ def auto_ground(
     returns : (return number, number of returns) of each point. Where some pulse has several
         returns, walls under tree crowns are found from the last returns; without them (or
         where every pulse has one) a wall needs open sky over part of it.
+    density : the survey's points per m² (:func:`ingest.ground.outliers.point_density`); None:
+        measured on ``xyz``.
     """
     p = params or AutoParams()
     xyz = np.asarray(xyz, float)
@@ -109,7 +112,7 @@ def auto_ground(
             raise InputError(f"returns need one return number and one count per point ({len(xyz)})")
         returns = (number, count) if (count > 1).any() else None
     ground = np.zeros(len(xyz), bool)
-    keep = np.flatnonzero(~low_outliers(xyz))
+    keep = np.flatnonzero(~low_outliers(xyz, density=density))
     pts = xyz[keep]
     grid = Grid.covering(pts[:, :2], p.cell)
     cells = CellSort.of(grid, pts)

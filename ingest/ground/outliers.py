@@ -25,12 +25,22 @@ from ingest.ground.grids import CellSort, Grid, heights_of, lowest_per_cell, occ
 from ingest.ground.morphology import progressive_opening
 from tdb.fill import fill_nearest
 
+DENSITY_BLOCK = 4.0  # m: the blocks a survey's occupied area is counted in
 
-def _block_floor(xyz: NDArray[np.float64], *, k: int, rank: int) -> NDArray[np.float64]:
-    """Per point, the ``rank``-th lowest z among the other points of its 3 × 3 block."""
+
+def point_density(xy: NDArray[np.float64]) -> float:
+    """Points per m² over the occupied area (:data:`DENSITY_BLOCK` blocks that hold a point), so
+    that gaps and an irregular outline do not thin it."""
+    return len(xy) / occupied_area(xy, block=DENSITY_BLOCK)
+
+
+def _block_floor(
+    xyz: NDArray[np.float64], *, k: int, rank: int, density: float | None = None
+) -> NDArray[np.float64]:
+    """Per point, the ``rank``-th lowest z among the other points of its 3 × 3 block (blocks sized
+    to ``density``, points per m²; None: this cloud's own, :func:`point_density`)."""
     xy = xyz[:, :2]
-    # density over the occupied area, so gaps and an irregular outline do not inflate the cells
-    density = len(xyz) / occupied_area(xy, block=4.0)
+    density = density or point_density(xy)
     grid = Grid.covering(xy, max(float(np.sqrt((k + 1) / (9.0 * density))), 1e-3))
     low = CellSort.of(grid, xyz).lowest_z(xyz, rank + 1)
     padded = np.pad(low, ((1, 1), (1, 1), (0, 0)), constant_values=np.inf)
@@ -51,9 +61,19 @@ def _block_floor(xyz: NDArray[np.float64], *, k: int, rank: int) -> NDArray[np.f
 
 
 def low_outliers(
-    xyz: NDArray[np.float64], *, k: int = 12, rank: int = 3, drop: float = 3.0, passes: int = 2
+    xyz: NDArray[np.float64],
+    *,
+    k: int = 12,
+    rank: int = 3,
+    drop: float = 3.0,
+    passes: int = 2,
+    density: float | None = None,
 ) -> NDArray[np.bool_]:
     """Mask of points lower than the ``rank``-th lowest of their ``k`` plan neighbours by > ``drop`` m.
+
+    ``density`` (points per m²) sizes the blocks neighbours are first sought in; None measures
+    it on ``xyz``. A survey modelled in blocks passes the whole survey's, so that every block
+    builds the grid the whole would.
 
     Taking the ``rank``-th lowest neighbour rather than the lowest lets small
     clusters of outliers (up to ``rank`` - 1 together) be found; a second pass
@@ -63,7 +83,7 @@ def low_outliers(
     out = np.zeros(len(xyz), bool)
     if len(xyz) <= k:
         return out
-    test = np.flatnonzero(xyz[:, 2] < _block_floor(xyz, k=k, rank=rank) - drop / 2)
+    test = np.flatnonzero(xyz[:, 2] < _block_floor(xyz, k=k, rank=rank, density=density) - drop / 2)
     if len(test) == 0:
         return out
     # One tree for both passes: the second skips the first's outliers among the neighbours
