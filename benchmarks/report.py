@@ -284,8 +284,8 @@ def reduction_section(out: list[str]) -> None:
         "",
         "Default ground filter, kept points = tile corners, the feature nodes that stand out by the flat "
         "threshold, and the worst-rebuilt nodes within a 9.8 % budget (docs/categories.md). "
-        "tdb's surface is their Delaunay TIN with each tile that keeps only its corners split along the "
-        "diagonal its category implies (`tdb/surface.py`), as `tdb aoi` rebuilds it. "
+        "tdb's surface is their line rebuild (straight lines along each tile's rows and columns, "
+        "`tdb/surface.py`), what queries and change detection read and what ingest records. "
         "pydelatin gets the same dense model "
         "and the same number of points; both rebuilt surfaces are compared with the dense model at every valid "
         f"post (`python -m benchmarks.reduction`). Machine: {_machine(doc)}. "
