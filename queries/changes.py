@@ -104,8 +104,11 @@ def _per_tile(
     """Mean variance of the relief hidden in gaps, and mean support, of the 2 m tiles making up each
     tile of ``level``. The lift stays out: a wall built or a bank lifts a tile as vegetation does."""
     k = level // EVIDENCE_LEVEL
-    fx, fy = _split(xg // EVIDENCE_LEVEL // k, yg // EVIDENCE_LEVEL // k, k)
-    e = evidence.at(fx * EVIDENCE_LEVEL, fy * EVIDENCE_LEVEL)
+    if k == 1:
+        e = evidence.at(xg, yg)
+    else:
+        fx, fy = _split(xg // EVIDENCE_LEVEL // k, yg // EVIDENCE_LEVEL // k, k)
+        e = evidence.at(fx * EVIDENCE_LEVEL, fy * EVIDENCE_LEVEL)
     variance = (GAP_SLOPE * e.gap.astype(float)) ** 2
     with np.errstate(invalid="ignore"):
         mean = np.nanmean(variance.reshape(len(xg), k * k), axis=1)

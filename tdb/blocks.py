@@ -140,10 +140,13 @@ def evidence_from_blocks(
         ys = by * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * 2
         cols = np.flatnonzero((xs + 2 > x0) & (xs < x1))
         rows = np.flatnonzero((ys + 2 > y0) & (ys < y1))
-        sub = raster[:, rows[:, None], cols[None, :]]
+        if len(cols) == 0 or len(rows) == 0:
+            continue
+        # the tiles in a box are a run of rows and columns: slices, not a gather
+        sub = raster[:, rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
         r, c = np.nonzero(~np.isnan(sub[-1]))
-        xs_.append(xs[cols[c]])
-        ys_.append(ys[rows[r]])
+        xs_.append(xs[cols[0] + c])
+        ys_.append(ys[rows[0] + r])
         vals.append(sub[:, r, c].astype(np.float32))
     if not vals:
         return np.empty(0, np.int64), np.empty(0, np.int64), [np.empty(0, np.float32) for _ in range(fields)]
