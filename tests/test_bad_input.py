@@ -65,3 +65,22 @@ def test_an_ingest_of_a_name_another_ingest_took_meanwhile_says_so(tmp_path, sma
     monkeypatch.setattr(tdb.database.Database, "versions", lambda self: [])  # the first check misses it
     with pytest.raises(VersionExistsError):
         ingest(small_cloud, db, version="v")
+
+
+def test_info_as_json_holds_no_nan(tmp_path, small_cloud):
+    """A version whose figures hold a NaN (a noise that could not be measured) is valid JSON."""
+    import dataclasses
+    import json
+
+    db = tdb.open(tmp_path / "j.tdb", create=True)
+    v = ingest(small_cloud, db, version="v")
+    stats = dataclasses.replace(v.stats, noise_m=math.nan)
+    with db.engine.begin() as conn:
+        from tdb import schema
+
+        conn.execute(schema.versions.update().values(stats=json.dumps(stats.to_json())))
+    db.close()
+    r = CliRunner().invoke(main, ["info", str(tmp_path / "j.tdb"), "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.output, parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
+    assert doc["versions"][0]["stats"]["noise_m"] is None

@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from tdb.cli.options import input_options
+from tdb.geojson import finite
 from tdb.tiles import LEVELS
 
 
@@ -33,7 +34,7 @@ def command(path: Path, crs: str | None, labels: str, as_json: bool) -> None:
     from ingest.summary import format_summary, summarize
 
     info = summarize(read(path, crs=crs, labels=labels, validate=True))
-    click.echo(json.dumps(info, indent=2) if as_json else format_summary(info))
+    click.echo(json.dumps(finite(info), indent=2, allow_nan=False) if as_json else format_summary(info))
 
 
 def _database_info(path: Path, as_json: bool) -> None:
@@ -61,7 +62,7 @@ def _database_info(path: Path, as_json: bool) -> None:
             ],
         }
     if as_json:
-        click.echo(json.dumps(doc, indent=2))
+        click.echo(json.dumps(finite(doc), indent=2, allow_nan=False))  # JSON has no NaN: null
         return
     click.echo(f"database:    {path} (schema {doc['schema_version']}), {len(versions)} version(s)")
     for v in versions:
