@@ -10,7 +10,8 @@ Writes keep both in the same transaction.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,10 +31,11 @@ def _group_starts(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.intp
     return np.flatnonzero(np.r_[True, (a[1:] != a[:-1]) | (b[1:] != b[:-1])])
 
 
-def tile_blocks(
-    xg: NDArray[np.int64], yg: NDArray[np.int64], code: NDArray[np.uint8], *, level: int
+def _raster_blocks(
+    xg: NDArray[np.int64], yg: NDArray[np.int64], layers: list[NDArray[Any]], *, level: int, fill: Any, dtype: str
 ) -> Iterator[tuple[int, int, bytes]]:
-    """(bx, by, blob) per block: a row-major (south first) raster of codes, ABSENT where no tile."""
+    """(bx, by, blob) per block of TILES_PER_BLOCK² tiles of ``level``: one row-major (south first)
+    raster of ``dtype`` per layer, ``fill`` where no tile."""
     side = TILES_PER_BLOCK * level
     bx, by = np.floor_divide(xg, side), np.floor_divide(yg, side)
     col = (xg - bx * side) // level
@@ -42,30 +44,60 @@ def tile_blocks(
     starts = _group_starts(bx[order], by[order])
     for s, e in zip(starts, np.r_[starts[1:], len(order)]):
         sel = order[s:e]
-        raster = np.full((TILES_PER_BLOCK, TILES_PER_BLOCK), ABSENT, np.uint8)
-        raster[row[sel], col[sel]] = code[sel]
+        raster = np.full((len(layers), TILES_PER_BLOCK, TILES_PER_BLOCK), fill, dtype)
+        for k, layer in enumerate(layers):
+            raster[k, row[sel], col[sel]] = layer[sel]
         yield int(bx[sel[0]]), int(by[sel[0]]), raster.tobytes()
+
+
+def _from_raster_blocks(
+    blocks: list[tuple[int, int, bytes]],
+    bbox: tuple[float, float, float, float],
+    *,
+    level: int,
+    layers: int,
+    dtype: str,
+    held: Callable[[NDArray[Any]], NDArray[np.bool_]],
+) -> tuple[NDArray[np.int64], NDArray[np.int64], list[NDArray[Any]]]:
+    """(xg, yg, layers) of the tiles of ``blocks`` overlapping ``bbox``, block by block; a tile is
+    held where ``held`` says so of the last layer."""
+    side = TILES_PER_BLOCK * level
+    x0, y0, x1, y1 = bbox
+    xs_, ys_, values = [], [], []
+    for bx, by, blob in blocks:
+        raster = np.frombuffer(blob, dtype).reshape(layers, TILES_PER_BLOCK, TILES_PER_BLOCK)
+        xs = bx * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * level
+        ys = by * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * level
+        cols = np.flatnonzero((xs + level > x0) & (xs < x1))
+        rows = np.flatnonzero((ys + level > y0) & (ys < y1))
+        if len(cols) == 0 or len(rows) == 0:
+            continue
+        # the tiles in a box are a run of rows and columns: slices, not a gather
+        sub = raster[:, rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+        r, c = np.nonzero(held(sub[-1]))
+        xs_.append(xs[cols[0] + c])
+        ys_.append(ys[rows[0] + r])
+        values.append(sub[:, r, c])
+    if not values:
+        return np.empty(0, np.int64), np.empty(0, np.int64), [np.empty(0, dtype) for _ in range(layers)]
+    stacked = np.concatenate(values, axis=1)
+    return np.concatenate(xs_), np.concatenate(ys_), list(stacked)
+
+
+def tile_blocks(
+    xg: NDArray[np.int64], yg: NDArray[np.int64], code: NDArray[np.uint8], *, level: int
+) -> Iterator[tuple[int, int, bytes]]:
+    """(bx, by, blob) per block: a row-major (south first) raster of codes, ABSENT where no tile."""
+    return _raster_blocks(xg, yg, [code], level=level, fill=ABSENT, dtype="u1")
 
 
 def tiles_from_blocks(
     blocks: list[tuple[int, int, bytes]], bbox: tuple[float, float, float, float], *, level: int
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]:
     """(xg, yg, code) of the tiles of ``blocks`` overlapping ``bbox``, block by block."""
-    side = TILES_PER_BLOCK * level
-    x0, y0, x1, y1 = bbox
-    parts = []
-    for bx, by, blob in blocks:
-        raster = np.frombuffer(blob, np.uint8).reshape(TILES_PER_BLOCK, TILES_PER_BLOCK)
-        xs = bx * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * level
-        ys = by * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * level
-        cols = np.flatnonzero((xs + level > x0) & (xs < x1))
-        rows = np.flatnonzero((ys + level > y0) & (ys < y1))
-        sub = raster[np.ix_(rows, cols)]
-        r, c = np.nonzero(sub != ABSENT)
-        parts.append((xs[cols[c]], ys[rows[r]], sub[r, c]))
-    if not parts:
-        return np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0, np.uint8)
-    xg, yg, code = (np.concatenate(p) for p in zip(*parts))
+    xg, yg, (code,) = _from_raster_blocks(
+        blocks, bbox, level=level, layers=1, dtype="u1", held=lambda r: r != ABSENT
+    )
     return xg, yg, code
 
 
@@ -113,17 +145,7 @@ def evidence_blocks(
 ) -> Iterator[tuple[int, int, bytes]]:
     """(bx, by, blob) per block of 2 m tiles: one row-major float16 raster per field of
     ``fields`` (:class:`tdb.evidence.TileEvidence`'s), NaN where no tile."""
-    side = TILES_PER_BLOCK * 2
-    bx, by = np.floor_divide(xg, side), np.floor_divide(yg, side)
-    col, row = (xg - bx * side) // 2, (yg - by * side) // 2
-    order = np.lexsort((by, bx))
-    starts = _group_starts(bx[order], by[order])
-    for s, e in zip(starts, np.r_[starts[1:], len(order)]):
-        sel = order[s:e]
-        raster = np.full((len(fields), TILES_PER_BLOCK, TILES_PER_BLOCK), np.nan, "<f2")
-        for k, f in enumerate(fields):
-            raster[k, row[sel], col[sel]] = f[sel]
-        yield int(bx[sel[0]]), int(by[sel[0]]), raster.tobytes()
+    return _raster_blocks(xg, yg, fields, level=2, fill=np.nan, dtype="<f2")
 
 
 def evidence_from_blocks(
@@ -131,24 +153,7 @@ def evidence_from_blocks(
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], list[NDArray[np.float32]]]:
     """(xg, yg, fields) of the 2 m tiles of ``blocks`` overlapping ``bbox``; a tile is held where
     its last field is not NaN."""
-    side = TILES_PER_BLOCK * 2
-    x0, y0, x1, y1 = bbox
-    xs_, ys_, vals = [], [], []
-    for bx, by, blob in blocks:
-        raster = np.frombuffer(blob, "<f2").reshape(fields, TILES_PER_BLOCK, TILES_PER_BLOCK)
-        xs = bx * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * 2
-        ys = by * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * 2
-        cols = np.flatnonzero((xs + 2 > x0) & (xs < x1))
-        rows = np.flatnonzero((ys + 2 > y0) & (ys < y1))
-        if len(cols) == 0 or len(rows) == 0:
-            continue
-        # the tiles in a box are a run of rows and columns: slices, not a gather
-        sub = raster[:, rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
-        r, c = np.nonzero(~np.isnan(sub[-1]))
-        xs_.append(xs[cols[0] + c])
-        ys_.append(ys[rows[0] + r])
-        vals.append(sub[:, r, c].astype(np.float32))
-    if not vals:
-        return np.empty(0, np.int64), np.empty(0, np.int64), [np.empty(0, np.float32) for _ in range(fields)]
-    stacked = np.concatenate(vals, axis=1)
-    return np.concatenate(xs_), np.concatenate(ys_), list(stacked)
+    xg, yg, values = _from_raster_blocks(
+        blocks, bbox, level=2, layers=fields, dtype="<f2", held=lambda r: ~np.isnan(r)
+    )
+    return xg, yg, [v.astype(np.float32) for v in values]

@@ -373,27 +373,15 @@ class Database:
         return self.version(name)
 
     def _write_tile_blocks(self, conn: Connection, vid: int, level: int, xg: Any, yg: Any, code: Any) -> None:
-        rows = [
-            {"version": vid, "level": level, "bx": bx, "by": by, "codes": blob}
-            for bx, by, blob in blocks.tile_blocks(xg, yg, code, level=level)
-        ]
-        if rows:
-            conn.execute(schema.tile_blocks.insert(), rows)
+        pages = blocks.tile_blocks(xg, yg, code, level=level)
+        _insert_blocks(conn, schema.tile_blocks, pages, {"version": vid, "level": level}, blob="codes")
 
     def _write_point_blocks(self, conn: Connection, vid: int, x: Any, y: Any, z: Any, n: Any) -> None:
-        rows = [
-            {"version": vid, "bx": bx, "by": by, "data": blob} for bx, by, blob in blocks.point_blocks(x, y, z, n)
-        ]
-        if rows:
-            conn.execute(schema.point_blocks.insert(), rows)
+        _insert_blocks(conn, schema.point_blocks, blocks.point_blocks(x, y, z, n), {"version": vid})
 
     def _write_evidence(self, conn: Connection, vid: int, e: TileEvidence) -> None:
-        rows = [
-            {"version": vid, "bx": bx, "by": by, "data": blob}
-            for bx, by, blob in blocks.evidence_blocks(e.xg, e.yg, [getattr(e, f) for f in e.FIELDS])
-        ]
-        if rows:
-            conn.execute(schema.evidence_blocks.insert(), rows)
+        pages = blocks.evidence_blocks(e.xg, e.yg, [getattr(e, f) for f in e.FIELDS])
+        _insert_blocks(conn, schema.evidence_blocks, pages, {"version": vid})
 
     def _bulk(
         self, conn: Connection, table: Any, vid: int, columns: dict[str, NDArray[Any]], report: _RowCount
@@ -563,12 +551,7 @@ class Database:
     ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]:
         tb = schema.tile_blocks
         q = select(tb.c.bx, tb.c.by, tb.c.codes).where(tb.c.version == vid, tb.c.level == level)
-        if bbox is not None:
-            side = blocks.TILES_PER_BLOCK * level
-            q = q.where(
-                tb.c.bx.between(int(np.floor(bbox[0] / side)), int(np.floor(bbox[2] / side))),
-                tb.c.by.between(int(np.floor(bbox[1] / side)), int(np.floor(bbox[3] / side))),
-            )
+        q = _in_blocks(q, tb, bbox, blocks.TILES_PER_BLOCK * level)
         rows = [tuple(r) for r in self._fetch(q)]
         inf = float("inf")
         return blocks.tiles_from_blocks(rows, bbox or (-inf, -inf, inf, inf), level=level)
@@ -577,13 +560,7 @@ class Database:
         self, vid: int, level: int, bbox: tuple[float, float, float, float] | None
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
         pb = schema.point_blocks
-        q = select(pb.c.data).where(pb.c.version == vid)
-        if bbox is not None:
-            side = blocks.POINT_BLOCK
-            q = q.where(
-                pb.c.bx.between(int(np.floor(bbox[0] / side)), int(np.floor(bbox[2] / side))),
-                pb.c.by.between(int(np.floor(bbox[1] / side)), int(np.floor(bbox[3] / side))),
-            )
+        q = _in_blocks(select(pb.c.data).where(pb.c.version == vid), pb, bbox, blocks.POINT_BLOCK)
         inf = float("inf")
         mask = 1 << schema_levels().index(level)
         return blocks.points_from_blocks([r[0] for r in self._fetch(q)], bbox or (-inf, -inf, inf, inf), mask=mask)
@@ -595,13 +572,9 @@ class Database:
         vid = self.version(version).id
         if eb.name not in self._tables:
             return TileEvidence.empty()
-        q = select(eb.c.bx, eb.c.by, eb.c.data).where(eb.c.version == vid)
-        if bbox is not None:
-            side = blocks.TILES_PER_BLOCK * 2
-            q = q.where(
-                eb.c.bx.between(int(np.floor(bbox[0] / side)), int(np.floor(bbox[2] / side))),
-                eb.c.by.between(int(np.floor(bbox[1] / side)), int(np.floor(bbox[3] / side))),
-            )
+        q = _in_blocks(
+            select(eb.c.bx, eb.c.by, eb.c.data).where(eb.c.version == vid), eb, bbox, blocks.TILES_PER_BLOCK * 2
+        )
         inf = float("inf")
         rows = [tuple(r) for r in self._fetch(q)]
         xg, yg, fields = blocks.evidence_from_blocks(
@@ -695,6 +668,30 @@ class _RowCount:
     def add(self, rows: int) -> None:
         self.done += rows
         self.progress("database", self.done, self.total)
+
+
+def _insert_blocks(
+    conn: Connection,
+    table: Any,
+    pages: Iterator[tuple[int, int, bytes]],
+    key: dict[str, int],
+    *,
+    blob: str = "data",
+) -> None:
+    """Insert block pages (bx, by, blob) with the columns ``key`` into ``table``."""
+    rows = [{**key, "bx": bx, "by": by, blob: data} for bx, by, data in pages]
+    if rows:
+        conn.execute(table.insert(), rows)
+
+
+def _in_blocks(q: Any, table: Any, bbox: tuple[float, float, float, float] | None, side: float) -> Any:
+    """``q`` restricted to the rows of ``table`` whose block (of ``side`` m) meets ``bbox``."""
+    if bbox is None:
+        return q
+    return q.where(
+        table.c.bx.between(int(np.floor(bbox[0] / side)), int(np.floor(bbox[2] / side))),
+        table.c.by.between(int(np.floor(bbox[1] / side)), int(np.floor(bbox[3] / side))),
+    )
 
 
 def _columns(rows: list[Any], dtypes: tuple[Any, ...]) -> Any:

@@ -100,25 +100,22 @@ tile_blocks = Table(
     sqlite_with_rowid=False,
 )
 
-point_blocks = Table(
-    "point_blocks",
-    metadata,
-    Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
-    Column("bx", Integer, primary_key=True, autoincrement=False),
-    Column("by", Integer, primary_key=True, autoincrement=False),
-    Column("data", LargeBinary, nullable=False),
-    sqlite_with_rowid=False,
-)
 
-evidence_blocks = Table(
-    "evidence_blocks",
-    metadata,
-    Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
-    Column("bx", Integer, primary_key=True, autoincrement=False),
-    Column("by", Integer, primary_key=True, autoincrement=False),
-    Column("data", LargeBinary, nullable=False),
-    sqlite_with_rowid=False,
-)
+def _block_table(name: str) -> Table:
+    """A version's BLOBs, one per square block (bx, by) of the area."""
+    return Table(
+        name,
+        metadata,
+        Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+        Column("bx", Integer, primary_key=True, autoincrement=False),
+        Column("by", Integer, primary_key=True, autoincrement=False),
+        Column("data", LargeBinary, nullable=False),
+        sqlite_with_rowid=False,
+    )
+
+
+point_blocks = _block_table("point_blocks")
+evidence_blocks = _block_table("evidence_blocks")
 
 coregistrations = Table(
     "coregistrations",
