@@ -31,7 +31,6 @@ LEVEL = 2  # m: evidence is kept for the finest tiles
 SUPPORT_SPACINGS = 1.5  # open ground has a return within this many pulse spacings of every node
 GAP_SLOPE = 0.1  # rise/run the terrain may take unseen across a gap in the ground returns
 MIN_SUPPORT = 0.5  # a change needs half a tile's nodes seen in each version
-DENSE = 4  # a lookup raster may hold this many cells per tile
 
 
 @dataclass(frozen=True)
@@ -68,28 +67,11 @@ class TileEvidence:
         fields = [np.full(len(xg), np.nan, np.float32) for _ in self.FIELDS]
         fields[-1][:] = 0.0
         if len(self) and len(xg):
-            at = self._find(xg // LEVEL, yg // LEVEL)
+            at = TileIndex(self.xg // LEVEL, self.yg // LEVEL).find(xg // LEVEL, yg // LEVEL)
             hit = at >= 0
             for out, name in zip(fields, self.FIELDS):
                 out[hit] = getattr(self, name)[at[hit]]
         return TileEvidence(xg, yg, *fields)
-
-    def _find(self, i: NDArray[np.int64], j: NDArray[np.int64]) -> NDArray[np.intp]:
-        """Position of the tiles (i, j) (in tile units) among this evidence's; −1 where none. A
-        lookup raster over the tiles' extent where they fill most of it (an area's tiles do),
-        else a sorted index."""
-        mi, mj = self.xg // LEVEL, self.yg // LEVEL
-        i0, j0 = int(mi.min()), int(mj.min())
-        shape = (int(mj.max()) - j0 + 1, int(mi.max()) - i0 + 1)
-        if shape[0] * shape[1] > DENSE * len(self):
-            return TileIndex(mi, mj).find(i, j)
-        grid = np.full(shape, -1, np.intp)
-        grid[mj - j0, mi - i0] = np.arange(len(self))
-        r, c = j - j0, i - i0
-        ok = (r >= 0) & (c >= 0) & (r < shape[0]) & (c < shape[1])
-        out = np.full(len(i), -1, np.intp)
-        out[ok] = grid[r[ok], c[ok]]
-        return out
 
     def supported_share(self) -> float:
         """Share of the tiles whose surface is seen well enough for a change to be claimed."""

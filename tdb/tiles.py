@@ -49,15 +49,35 @@ def tile_key(i: NDArray[np.integer], j: NDArray[np.integer]) -> NDArray[np.int64
 
 
 class TileIndex:
-    """Position of tiles by their integer indices (i, j): sorted once, looked up many times."""
+    """Position of tiles by their integer indices (i, j), looked up many times: through a raster
+    over their extent where they fill most of it (an area's tiles do: no sort), else sorted once."""
+
+    DENSE = 4  # raster cells the lookup may spend per tile
 
     def __init__(self, i: NDArray[np.integer], j: NDArray[np.integer]) -> None:
+        i, j = np.asarray(i, np.int64), np.asarray(j, np.int64)
+        self._raster: NDArray[np.intp] | None = None
+        if len(i):
+            self._i0, self._j0 = int(i.min()), int(j.min())
+            shape = (int(j.max()) - self._j0 + 1, int(i.max()) - self._i0 + 1)
+            if shape[0] * shape[1] <= self.DENSE * len(i):
+                self._raster = np.full(shape, -1, np.intp)
+                self._raster[j - self._j0, i - self._i0] = np.arange(len(i))
+                return
         key = tile_key(i, j)
         self._order = np.argsort(key)
         self._sorted = key[self._order]
 
     def find(self, i: NDArray[np.integer], j: NDArray[np.integer]) -> NDArray[np.intp]:
         """Index of the tile (i, j) among those indexed; −1 where there is none."""
+        if self._raster is not None:
+            r = np.asarray(j, np.int64) - self._j0
+            c = np.asarray(i, np.int64) - self._i0
+            rows, cols = self._raster.shape
+            ok = (r >= 0) & (c >= 0) & (r < rows) & (c < cols)
+            out = np.full(len(r), -1, np.intp)
+            out[ok] = self._raster[r[ok], c[ok]]
+            return out
         want = tile_key(i, j)
         out = np.full(len(want), -1, np.intp)
         if len(self._sorted) == 0:
