@@ -19,7 +19,6 @@ Peers come from ``pip install -e .[bench]``; a peer that is not installed is ski
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import importlib.util
 import tempfile
 import time
@@ -31,11 +30,10 @@ import shapely
 
 import tdb
 from benchmarks.common import DATA, save
-from benchmarks.coregister_synth import ALL, offset_for
+from benchmarks.coregister_synth import offset_pair
 from benchmarks.epochs import CELL, against_providers
 from ingest.pipeline import ingest, survey
 from ingest.readers import read
-from ingest.synth import apply_changes, make_scene, sample
 from queries.changes import detect
 from queries.coregister import coregister, estimation_grids
 from tdb.raster import Raster
@@ -85,13 +83,7 @@ def shifts(db: tdb.Database, before: str, after: str) -> dict[str, Any]:
 
 
 def synthetic(seed: int, size: float, density: float, workdir: Path) -> dict[str, Any]:
-    scene = make_scene(seed=seed, size=size)
-    later, _ = apply_changes(scene, seed=seed)
-    resurvey = sample(later, density=density, seed=seed + 1000)
-    offset = offset_for(seed)
-    db = tdb.open(workdir / f"p{seed}.tdb", create=True)
-    ingest(sample(scene, density=density, seed=seed), db, version="before", options=ALL)
-    ingest(dataclasses.replace(resurvey, xyz=resurvey.xyz + offset), db, version="moved", options=ALL)
+    db, offset, _ = offset_pair(seed, size, density, workdir / f"p{seed}.tdb")
     found = shifts(db, "before", "moved")
     for r in found.values():
         r["horizontal_error_m"] = float(np.hypot(r["dx"] - offset[0], r["dy"] - offset[1]))

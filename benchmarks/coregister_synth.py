@@ -34,15 +34,23 @@ def offset_for(seed: int) -> np.ndarray:
     return np.array([rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-0.5, 0.5)])
 
 
-def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str, Any]:
+def offset_pair(seed: int, size: float, density: float, path: Path) -> tuple[tdb.Database, np.ndarray, list[Any]]:
+    """A database at ``path`` holding the seed's scene ("before"), its re-survey with changes
+    ("after") and the same re-survey offset by :func:`offset_for` ("moved"); the offset and the
+    true changes."""
     scene = make_scene(seed=seed, size=size)
     later, changes = apply_changes(scene, seed=seed)
     resurvey = sample(later, density=density, seed=seed + 1000)
     offset = offset_for(seed)
-    db = tdb.open(workdir / f"o{seed}.tdb", create=True)
+    db = tdb.open(path, create=True)
     ingest(sample(scene, density=density, seed=seed), db, version="before", options=ALL)
     ingest(resurvey, db, version="after", options=ALL)
     ingest(dataclasses.replace(resurvey, xyz=resurvey.xyz + offset), db, version="moved", options=ALL)
+    return db, offset, changes
+
+
+def evaluate(seed: int, size: float, density: float, workdir: Path) -> dict[str, Any]:
+    db, offset, changes = offset_pair(seed, size, density, workdir / f"o{seed}.tdb")
     plain = coregister(db, "before", "after")
     t0 = time.perf_counter()
     shift = coregister(db, "before", "moved")

@@ -286,20 +286,21 @@ def resample(data: NDArray[np.float64], di: float, dj: float, *, order: int = 1)
 def _shift_bilinear(data: NDArray[np.float64], di: float, dj: float) -> NDArray[np.float64]:
     """The same shift for every cell: four shifted copies weighted, no coordinate arrays."""
     rows, cols = data.shape
+    pad = int(max(abs(np.floor(di)), abs(np.floor(dj)))) + 2
+    padded = np.pad(data, pad, constant_values=np.nan)
+    out = np.zeros((rows, cols))
+    for dr, dc, w in _bilinear_weights(di, dj):
+        out += w * padded[pad + dr : pad + dr + rows, pad + dc : pad + dc + cols]  # NaN anywhere it is read
+    return out
+
+
+def _bilinear_weights(di: float, dj: float) -> list[tuple[int, int, float]]:
+    """The (row offset, column offset, weight) of the neighbours a read at (column + di, row + dj)
+    mixes, those of no weight left out."""
     ki, kj = int(np.floor(di)), int(np.floor(dj))
     fi, fj = di - ki, dj - kj
-    pad = max(abs(ki), abs(kj)) + 2
-    padded = np.pad(data, pad, constant_values=np.nan)
-
-    def at(a: int, b: int) -> NDArray[np.float64]:
-        r0, c0 = pad + kj + a, pad + ki + b
-        return padded[r0 : r0 + rows, c0 : c0 + cols]
-
-    out = np.zeros((rows, cols))
-    for a, b, w in ((0, 0, (1 - fi) * (1 - fj)), (0, 1, fi * (1 - fj)), (1, 0, (1 - fi) * fj), (1, 1, fi * fj)):
-        if w > 1e-12:
-            out += w * at(a, b)  # NaN anywhere it is read
-    return out
+    corners = ((0, 0, (1 - fi) * (1 - fj)), (0, 1, fi * (1 - fj)), (1, 0, (1 - fi) * fj), (1, 1, fi * fj))
+    return [(kj + a, ki + b, w) for a, b, w in corners if w > 1e-12]
 
 
 def _bilinear_at(
@@ -308,14 +309,11 @@ def _bilinear_at(
     """``data`` read at (column + di, row + dj) of the given cells, bilinearly, as
     :func:`resample` reads it; NaN where a neighbour is NaN or outside."""
     rows, cols = data.shape
-    ki, kj = int(np.floor(di)), int(np.floor(dj))
-    fi, fj = di - ki, dj - kj
     out = np.zeros(len(row))
-    for a, b, w in ((0, 0, (1 - fi) * (1 - fj)), (0, 1, fi * (1 - fj)), (1, 0, (1 - fi) * fj), (1, 1, fi * fj)):
-        if w > 1e-12:
-            r, c = row + kj + a, col + ki + b
-            inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
-            out += w * np.where(inside, data[np.clip(r, 0, rows - 1), np.clip(c, 0, cols - 1)], np.nan)
+    for dr, dc, w in _bilinear_weights(di, dj):
+        r, c = row + dr, col + dc
+        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        out += w * np.where(inside, data[np.clip(r, 0, rows - 1), np.clip(c, 0, cols - 1)], np.nan)
     return out
 
 
