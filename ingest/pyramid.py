@@ -14,7 +14,7 @@ from tdb.categories import NO_DATA
 from tdb.raster import Raster
 from tdb.stats import ReductionStats
 from tdb.surface import line_rebuild_at
-from tdb.tiles import LEVELS, SUBGRID, level_bit, node_lattice
+from tdb.tiles import LEVELS, SUBGRID, NodeLattice, level_bit, node_lattice
 
 
 @dataclass(frozen=True)
@@ -53,6 +53,7 @@ def build(
     unit = min(levels) / (n - 1)
     out: dict[int, LevelTiles] = {}
     keys: list[NDArray[np.int64]] = []
+    finest_grid: NodeLattice | None = None
     bits: list[NDArray[np.uint8]] = []
     for level in levels:
         grid = node_grid(dtm, level, n=n)
@@ -62,6 +63,7 @@ def build(
         codes = categorise(tiles, flat_threshold=flat_threshold, n=n)
         out[level] = LevelTiles(level, ti * level, tj * level, codes)
         if level == min(levels):
+            finest_grid = grid
             keep = refine(tiles, codes, ti, tj, n=n, budget=budget_for(grid, n=n), relief=flat_threshold)
         else:
             keep = paper_keep(tiles, codes, n=n)
@@ -77,13 +79,17 @@ def build(
     z = dtm.sample(x, y)
     good = ~np.isnan(z)
     model = TerrainModel(out, x[good], y[good], z[good], mask[good])
-    return TerrainModel(model.levels, model.x, model.y, model.z, model.n, reduction_stats(dtm, model, n=n))
+    stats = reduction_stats(dtm, model, n=n, dense=finest_grid)
+    return TerrainModel(model.levels, model.x, model.y, model.z, model.n, stats)
 
 
-def reduction_stats(dtm: Raster, model: TerrainModel, *, n: int = SUBGRID) -> ReductionStats:
+def reduction_stats(
+    dtm: Raster, model: TerrainModel, *, n: int = SUBGRID, dense: NodeLattice | None = None
+) -> ReductionStats:
     """Share of dense posts removed and the vertical error of the surface rebuilt from the kept 2 m
     points, at every post: the line rebuild that queries and change detection read
-    (:mod:`tdb.surface`), tile by tile from the kept points' lattice, so no triangulation."""
+    (:mod:`tdb.surface`), tile by tile from the kept points' lattice, so no triangulation.
+    ``dense``: the finest level's node lattice of ``dtm`` where the caller has it already."""
     valid = ~np.isnan(dtm.data)
     posts = int(valid.sum())
     finest = min(model.levels)
@@ -91,7 +97,7 @@ def reduction_stats(dtm: Raster, model: TerrainModel, *, n: int = SUBGRID) -> Re
     rmse = max_error = None
     tiles = model.levels[finest]
     if keep.sum() >= 3 and len(tiles.xg):
-        dense = node_grid(dtm, finest, n=n)
+        dense = dense if dense is not None else node_grid(dtm, finest, n=n)
         kept = node_lattice(model.x[keep], model.y[keep], model.z[keep], finest)
         rebuilt = line_rebuild_at(kept.tile_nodes(tiles.xg, tiles.yg))
         # onto the dense lattice: a node two tiles share is rebuilt the same from either (its edge's nodes)

@@ -54,10 +54,11 @@ def atomic_path(path: str | os.PathLike[str], *, errors: tuple[type[BaseExceptio
 
 def is_terrain_database(path: Path) -> bool:
     """Whether ``path`` is an SQLite file holding tdb's ``meta`` and ``versions`` tables (read only)."""
+    from tdb.database import is_database
+
+    if not is_database(path):
+        return False
     try:
-        with path.open("rb") as fh:
-            if fh.read(16) != b"SQLite format 3\x00":
-                return False
         con = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
         try:
             names = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
