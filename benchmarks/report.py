@@ -87,6 +87,88 @@ def ground_section(out: list[str]) -> None:
         )
 
 
+def ground_real_section(out: list[str]) -> None:
+    table = _load("ground_real")
+    if not table:
+        return
+    names = [n for n in table if n != "machine"]
+    out += [
+        "## Ground filters against the providers' classes on the real files",
+        "",
+        "The second, independent check of the ground filter (issue 26): the files of `../shared/data/las` "
+        "and `../shared/data/epochs` with their producers' ground class, which no setting here was made on "
+        "(`python -m benchmarks.ground_real`). Low vegetation, water and noise classes are not scored "
+        f"(see the module). Type I / Type II / κ, %. Machine: {_machine(table)}.",
+        "",
+        "| file | " + " | ".join(names) + " |",
+        "|---|" + "---|" * len(names),
+    ]
+    files = [f for f in table[names[0]] if f != "mean"]
+    for f in [*files, "mean"]:
+        cells = [
+            f"{table[n][f]['type1']:.2f} / {table[n][f]['type2']:.2f} / {table[n][f]['kappa']:.1f}" for n in names
+        ]
+        out.append(f"| {f} | " + " | ".join(cells) + " |")
+    out.append("")
+
+
+def _three(r: dict[str, float]) -> str:
+    return f"{r['type1']:.2f} / {r['type2']:.2f} / {r['kappa']:.1f}"
+
+
+def ground_cv_section(out: list[str]) -> None:
+    doc = _load("ground_cv")
+    if not doc:
+        return
+    out += [
+        "## The default filter's settings by leave-one-site-out cross-validation",
+        "",
+        "Every setting of the grid below scored on every sample; each site then scored with the setting "
+        "best on the other sites (*held out*), beside the setting best on all sites (*tuned*) and the "
+        f"shipped default (`python -m benchmarks.ground_cv`). Total error %. Machine: {_machine(doc)}.",
+        "",
+        "Grid: "
+        + "; ".join(f"`{k}` {', '.join(map(str, v))}" for k, v in doc["grid"].items())
+        + f". Tuned: `{doc['tuned_setting']}`; default: `{doc['default_setting']}`.",
+        "",
+        "| sample | site | default | tuned | held out | setting chosen without the site |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in doc["rows"]:
+        chosen = ", ".join(f"{k} {v}" for k, v in r["held_out_setting"].items())
+        out.append(
+            f"| {r['sample']} | {r['site']} | {r['default']:.2f} | {r['tuned']:.2f} | "
+            f"{r['held_out']:.2f} | {chosen} |"
+        )
+    out.append("")
+    for key, label in (("default", "default"), ("tuned", "tuned"), ("held_out", "held out")):
+        fams = ", ".join(f"{k.removesuffix('_mean')} {v:.2f} %" for k, v in doc["summary"][key].items())
+        out.append(f"- {label}: {fams}")
+    out.append("")
+
+
+def copc_section(out: list[str]) -> None:
+    doc = _load("copc_read")
+    if not doc:
+        return
+    laz, copc = doc["ingest"]["laz"], doc["ingest"]["copc"]
+    out += [
+        "## A part of a large survey: COPC read by range",
+        "",
+        f"{doc['file']} ({doc['file_points']:,} points) written once as COPC; a box of {doc['box_m']:.0f} m "
+        f"({doc['box_points']:,} points) read and ingested (`tdb ingest --bbox`) from it and from the plain "
+        f"LAZ (`python -m benchmarks.copc_read`). Machine: {_machine(doc)}.",
+        "",
+        "| | read the box (s) | ingest the box (s) | 2 m tiles |",
+        "|---|---|---|---|",
+        f"| LAZ, scanned whole | {doc['laz_scan_read_s']:.2f} | {laz['ingest_s']:.1f} | {laz['tiles_2m']:,} |",
+        f"| COPC, by range | {doc['copc_range_read_s']:.2f} | {copc['ingest_s']:.1f} | {copc['tiles_2m']:,} |",
+        "",
+        f"The same points either way: {'yes' if doc['same_points'] else 'no'}.",
+        "",
+    ]
+
+
 def busy_section(out: list[str]) -> None:
     doc = _load("busy_ingest")
     if not doc:
@@ -505,6 +587,8 @@ def main() -> None:
     sections = (
         busy_section,
         ground_section,
+        ground_real_section,
+        ground_cv_section,
         categorise_section,
         reduction_section,
         database_section,
@@ -514,6 +598,7 @@ def main() -> None:
         coregister_section,
         peers_section,
         blocked_section,
+        copc_section,
     )
     for section in sections:
         section(out)

@@ -15,6 +15,8 @@ MODULES = (
     "categorise_speed",
     "db_speed",
     "ground_isprs",
+    "ground_real",
+    "ground_cv",
     "ground_speed",
     "reduction",
     "features",
@@ -22,6 +24,7 @@ MODULES = (
     "epochs",
     "coregister_synth",
     "coregister_peers",
+    "copc_read",
 )
 
 

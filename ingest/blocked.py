@@ -78,9 +78,12 @@ class Blocking:
     buffer: float = BUFFER
     workers: int | None = None
     scheduler: str | None = None
+    region: Box | None = None  # only this area (x0, y0, x1, y1), widened to the 16 m tiles it touches
 
     def __post_init__(self) -> None:
         coarsest = max(LEVELS)
+        if self.region is not None and not (self.region[0] < self.region[2] and self.region[1] < self.region[3]):
+            raise InputError(f"a region needs x0 < x1 and y0 < y1, got {self.region}")
         if self.block <= 0 or self.block % coarsest:
             raise InputError(f"a block's side must be a positive multiple of {coarsest} m, got {self.block}")
         if self.buffer < 0:
@@ -139,9 +142,16 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     catalog = open_catalog(source if is_catalog(source) else [Path(str(source))])
     crs = as_crs(o.crs) if o.crs is not None else catalog.crs
     _check_metric(crs)
-    blocks = _blocks(catalog.bounds, b)
+    area = _area(catalog.bounds, b.region)
+    blocks = _blocks(area, b)
+    # Where only a region is wanted, only it and its buffer are read (COPC files by range).
+    wanted = (
+        None
+        if b.region is None
+        else (area[0] - b.buffer, area[1] - b.buffer, area[2] + b.buffer, area[3] + b.buffer)
+    )
     with tempfile.TemporaryDirectory(prefix="tdb-blocks-") as tmp:
-        files, density = _scatter(catalog, blocks, Path(tmp), report, exclude=o.exclude)
+        files, density = _scatter(catalog, blocks, Path(tmp), report, exclude=o.exclude, box=wanted)
         if o.density is None and density > 0:
             o = dataclasses.replace(o, density=density)
         if o.flat_threshold is None:
@@ -156,7 +166,25 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
         options=o,
         crs=crs,
         source=catalog,
+        bounds=area,
         progress=report,
+    )
+
+
+def _area(bounds: Box, region: Box | None) -> Box:
+    """The survey's extent, or the part of it in ``region``, widened to whole 16 m tiles."""
+    if region is None:
+        return bounds
+    x0, y0 = max(region[0], bounds[0]), max(region[1], bounds[1])
+    x1, y1 = min(region[2], bounds[2]), min(region[3], bounds[3])
+    if x0 >= x1 or y0 >= y1:
+        raise InputError(f"the region {region} does not meet the survey, which covers {bounds}")
+    t = max(LEVELS)
+    return (
+        float(np.floor(x0 / t) * t),
+        float(np.floor(y0 / t) * t),
+        float(np.ceil(x1 / t) * t),
+        float(np.ceil(y1 / t) * t),
     )
 
 
@@ -172,6 +200,7 @@ def _check_metric(crs: Any) -> None:
 
 
 def _blocks(bounds: Box, b: Blocking) -> list[_Block]:
+    """The blocks over ``bounds``; with a region, cut to it (``bounds`` is then on the 16 m tiles)."""
     x0, y0, x1, y1 = bounds
     xs = np.arange(np.floor(x0 / b.block) * b.block, x1 + 1e-9, b.block)
     ys = np.arange(np.floor(y0 / b.block) * b.block, y1 + 1e-9, b.block)
@@ -179,24 +208,37 @@ def _blocks(bounds: Box, b: Blocking) -> list[_Block]:
     for bx in xs:
         for by in ys:
             core = (float(bx), float(by), float(bx + b.block), float(by + b.block))
-            grown = (core[0] - b.buffer, core[1] - b.buffer, core[2] + b.buffer, core[3] + b.buffer)
-            out.append(_Block(core, grown))
+            if b.region is not None:
+                core = (max(core[0], x0), max(core[1], y0), min(core[2], x1), min(core[3], y1))
+            out.append(_Block(core, _grown(core, b.buffer)))
     return out
 
 
+def _grown(box: Box, by: float) -> Box:
+    return (box[0] - by, box[1] - by, box[2] + by, box[3] + by)
+
+
 def _scatter(
-    catalog: Catalog, blocks: list[_Block], tmp: Path, report: Progress, *, exclude: tuple[int, ...]
+    catalog: Catalog,
+    blocks: list[_Block],
+    tmp: Path,
+    report: Progress,
+    *,
+    exclude: tuple[int, ...],
+    box: Box | None = None,
 ) -> tuple[list[Path], float]:
-    """One pass over the input: every point appended to the file of each block whose buffered
-    box holds it; and the survey's point density as the ground filter measures it on the points
-    it sees (those not of the ``exclude`` classes), over the whole survey, once."""
+    """One pass over the input (or its points in ``box``): every point appended to the file of
+    each block whose buffered box holds it; and the survey's point density as the ground filter
+    measures it on the points it sees (those not of the ``exclude`` classes), over the whole survey, once."""
     files = [tmp / f"block{k}.bin" for k in range(len(blocks))]
     grown = np.array([blk.grown for blk in blocks])
     done, total = 0, catalog.points
     seen, cells = 0, []
     report("reading", 0, total)
     for f in catalog.files:
-        for rec in iter_records(f.path, chunk_size=CHUNK):
+        if box is not None and not _touched(np.array([box]), f.bounds).size:
+            continue
+        for rec in iter_records(f.path, chunk_size=CHUNK, box=box):
             use = ~excluded(rec["c"], exclude)
             seen += int(use.sum())
             cells.append(np.unique(tile_key(*(np.floor(rec[a][use] / DENSITY_BLOCK) for a in "xy"))))
@@ -373,6 +415,7 @@ def _store(  # noqa: PLR0913 (the version and what is recorded of it)
     options: IngestOptions,
     crs: Any,
     source: Catalog,
+    bounds: Box,
     progress: Progress,
 ) -> Version:
     if not results:
@@ -405,7 +448,6 @@ def _store(  # noqa: PLR0913 (the version and what is recorded of it)
     )
     noise = float(np.average([r.noise for r in results], weights=[r.points_read for r in results]))
     thresholds = [r.flat_threshold for r in results]
-    bounds = source.bounds
     stats = VersionStats(
         reduction=reduction,
         points=read,
@@ -422,6 +464,7 @@ def _store(  # noqa: PLR0913 (the version and what is recorded of it)
         "resolution": options.resolution,
         "subgrid": SUBGRID,
         "flat_threshold": float(np.median(thresholds)),
+        "density": options.density,
         "exclude_classes": list(options.exclude),
         "blocks": len(results),
         "finest_level": finest,

@@ -17,12 +17,11 @@ from typing import Any
 import laspy
 import numpy as np
 
-from ingest.readers import RECORD, from_records, in_box, iter_records
+from ingest.readers import RECORD, Box, from_records, iter_records
 from tdb.cloud import PointCloud
 from tdb.crs import describe
 from tdb.errors import CRSError, FormatError, InputError, TdbIOError
 
-Box = tuple[float, float, float, float]
 SUFFIXES = (".las", ".laz")
 
 
@@ -54,9 +53,7 @@ class Catalog:
 
     def read(self, box: Box) -> PointCloud:
         """The points of every tile inside ``box`` (edges included), merged."""
-        parts = [
-            rec[in_box(rec, box)] for f in self.files if _overlaps(f.bounds, box) for rec in iter_records(f.path)
-        ]
+        parts = [rec for f in self.files if _overlaps(f.bounds, box) for rec in iter_records(f.path, box=box)]
         rec = np.concatenate(parts) if parts else np.zeros(0, RECORD)
         return from_records(rec, crs=self.crs, source=f"catalog of {len(self.files)} files")
 

@@ -71,12 +71,19 @@ def read(
     return cloud
 
 
+Box = tuple[float, float, float, float]
+RANGE_PAD = 1.0  # m around a box its COPC nodes are found in; the box itself is applied after
+
 RECORD = np.dtype([("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("c", "u1"), ("r", "u1"), ("n", "u1")])
 """One LAS point as tdb models it: coordinates, class, return number, number of returns."""
 
 
-def iter_records(path: str | os.PathLike[str], *, chunk_size: int = 1_000_000) -> Iterator[NDArray[Any]]:
-    """A LAS/LAZ file's points as :data:`RECORD` arrays, ``chunk_size`` at a time.
+def iter_records(
+    path: str | os.PathLike[str], *, chunk_size: int = 1_000_000, box: Box | None = None
+) -> Iterator[NDArray[Any]]:
+    """A LAS/LAZ file's points as :data:`RECORD` arrays, ``chunk_size`` at a time; with ``box``
+    (x0, y0, x1, y1, edges included) only the points inside it. A COPC file is then read by
+    range: only the octree nodes that reach the box are decoded.
 
     Raises
     ------
@@ -90,13 +97,38 @@ def iter_records(path: str | os.PathLike[str], *, chunk_size: int = 1_000_000) -
         raise FormatError(f"{p}: not a readable LAS/LAZ file ({exc})") from None
     with reader:
         try:
+            if box is not None and is_copc(reader.header):
+                yield _copc_box(p, box)
+                return
             for chunk in reader.chunk_iterator(chunk_size):
-                rec = np.empty(len(chunk), RECORD)
-                rec["x"], rec["y"], rec["z"] = chunk.x, chunk.y, chunk.z
-                rec["c"], rec["r"], rec["n"] = chunk.classification, chunk.return_number, chunk.number_of_returns
-                yield rec
+                rec = _record(chunk)
+                yield rec if box is None else rec[in_box(rec, box)]
         except Exception as exc:  # any decoder failure means corrupt data
             raise FormatError(f"{p}: corrupt or truncated point data ({exc})") from None
+
+
+def is_copc(header: laspy.LasHeader) -> bool:
+    """Whether a LAS header is a COPC file's (its first VLR is the ``copc`` info record)."""
+    return any(v.user_id == "copc" and v.record_id == 1 for v in header.vlrs)
+
+
+def _copc_box(path: Path, box: Box) -> NDArray[Any]:
+    x0, y0, x1, y1 = box
+    # laspy's query leaves out points on the box's far edges, which a box here includes.
+    pad = RANGE_PAD
+    with laspy.CopcReader.open(path) as reader:
+        points = reader.query(
+            bounds=laspy.Bounds(mins=np.array([x0 - pad, y0 - pad]), maxs=np.array([x1 + pad, y1 + pad]))
+        )
+    rec = _record(points)
+    return rec[in_box(rec, box)]
+
+
+def _record(points: Any) -> NDArray[Any]:
+    rec = np.empty(len(points), RECORD)
+    rec["x"], rec["y"], rec["z"] = points.x, points.y, points.z
+    rec["c"], rec["r"], rec["n"] = points.classification, points.return_number, points.number_of_returns
+    return rec
 
 
 def from_records(rec: NDArray[Any], *, crs: Any, source: str) -> PointCloud:
@@ -112,15 +144,13 @@ def from_records(rec: NDArray[Any], *, crs: Any, source: str) -> PointCloud:
     )
 
 
-def in_box(rec: NDArray[Any], box: tuple[float, float, float, float]) -> NDArray[np.bool_]:
+def in_box(rec: NDArray[Any], box: Box) -> NDArray[np.bool_]:
     """Which points lie in ``box`` (x0, y0, x1, y1; edges included)."""
     x0, y0, x1, y1 = box
     return np.asarray((rec["x"] >= x0) & (rec["x"] <= x1) & (rec["y"] >= y0) & (rec["y"] <= y1))
 
 
-def read_box(
-    path: str | os.PathLike[str], box: tuple[float, float, float, float], *, chunk_size: int = 1_000_000
-) -> PointCloud:
+def read_box(path: str | os.PathLike[str], box: Box, *, chunk_size: int = 1_000_000) -> PointCloud:
     """The points of a LAS/LAZ file inside ``box`` (x0, y0, x1, y1; edges included), decoded
     chunk by chunk so that only the box's points are ever held.
 
@@ -132,7 +162,7 @@ def read_box(
     p = Path(path)
     if not p.is_file():
         raise TdbIOError(f"{p}: no such file")
-    parts = [rec[in_box(rec, box)] for rec in iter_records(p, chunk_size=chunk_size)]
+    parts = list(iter_records(p, chunk_size=chunk_size, box=box))
     return from_records(np.concatenate(parts) if parts else np.zeros(0, RECORD), crs=las_crs(p), source=str(p))
 
 

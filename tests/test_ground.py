@@ -208,23 +208,23 @@ def test_default_removes_isprs_low_outliers():
     assert deep.any() and not ground[deep].any()
 
 
-@settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 10_000), share=st.floats(0.0, 0.9), n=st.integers(1, 14))
-def test_nearest_kept_neighbours_match_a_tree_of_the_kept_points(seed, share, n):
-    # The low-outlier test's second pass asks one tree of all points for the nearest points
-    # that are not first-pass outliers; a tree built without them must give the same distances.
-    from scipy.spatial import cKDTree
-
-    from ingest.ground.outliers import _nearest_kept
-
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), share=st.floats(0.15, 0.5), density=st.floats(1.0, 12.0))
+def test_ground_under_a_canopy_is_no_low_outlier(seed, share, density):
+    # Under a forest a ground return's nearest points are leaves metres above it; the test
+    # must compare it with the lowest points around it, and still find a point 5-40 m down.
+    # Down to canopies that let 15 % of the returns through: sparser ground than that leaves
+    # whole envelope cells on leaves, and a ground point at the data's edge may then pass for one.
     rng = np.random.default_rng(seed)
-    xy = rng.uniform(0, 50, (300, 2))
-    skip = rng.random(300) < share
-    queries = rng.uniform(0, 50, (25, 2))
-    got = _nearest_kept(cKDTree(xy), queries, skip, n)
-    kept = np.flatnonzero(~skip)
-    want = min(n, len(kept))
-    assert got.shape == (25, want) and not skip[got].any()
-    d_got = np.hypot(*(xy[got] - queries[:, None, :]).transpose(2, 0, 1))
-    d_want, _ = cKDTree(xy[kept]).query(queries, k=want)
-    np.testing.assert_allclose(d_got, np.asarray(d_want).reshape(25, want))
+    n = int(density * 80 * 80)
+    xy = rng.uniform(0, 80, (n, 2))
+    ground = rng.random(n) < share
+    z = 0.05 * xy[:, 0] + np.where(ground, rng.normal(0, 0.05, n), rng.uniform(8, 25, n))
+    xyz = np.column_stack([xy, z])
+    bad = rng.choice(np.flatnonzero(ground), 5, replace=False)
+    xyz[bad, 2] -= rng.uniform(5, 40, 5)
+    flagged = low_outliers(xyz)
+    assert flagged[bad].all()
+    good = ground.copy()
+    good[bad] = False
+    assert not flagged[good].any()

@@ -31,8 +31,8 @@ def _plane(rng, n, size=40.0):
 @settings(max_examples=30, deadline=None)
 @given(seed=st.integers(0, 2**16), spikes=st.integers(1, 8), depth=st.floats(2.0, 3.0))
 def test_single_low_points_are_found_and_nothing_else(seed, spikes, depth):
-    # 4 points/m²: the eighth neighbour lies up to about 1.2 m off, so 2 m down is beyond
-    # 0.5 m + 1.0 × distance from every neighbour
+    # 4 points/m²: the eighth neighbour lies mostly within 1.2 m, so 2 m down is beyond
+    # 0.5 m + 1.0 × distance from every neighbour; where it lies further off, not (both exact)
     rng = np.random.default_rng(seed)
     xyz = _plane(rng, 6400)
     chosen = rng.choice(len(xyz), spikes, replace=False)
@@ -41,7 +41,10 @@ def test_single_low_points_are_found_and_nothing_else(seed, spikes, depth):
     ]
     xyz[planted, 2] -= depth
     found = ground_spikes(xyz, np.ones(len(xyz), bool))
-    assert set(np.flatnonzero(found).tolist()) == {int(i) for i in planted}
+    dist, nb = cKDTree(xyz[:, :2]).query(xyz[planted, :2], k=9)
+    deep = (xyz[nb[:, 1:], 2] - xyz[planted, 2][:, None] > 0.5 + dist[:, 1:]).all(axis=1)
+    assert set(np.flatnonzero(found).tolist()) == {int(i) for i, d in zip(planted, deep) if d}
+    assert deep.mean() >= 0.5  # the test is about found spikes, not about sparse corners
 
 
 @settings(max_examples=25, deadline=None)

@@ -38,7 +38,7 @@ from ingest.ground.earthworks import EarthworkShape, WallShape, elongated_object
 from ingest.ground.grids import CellSort, Grid, corner_heights, heights_of, quantised
 from ingest.ground.hills import HillShape, point_spacing, smooth_hills
 from ingest.ground.morphology import progressive_opening
-from ingest.ground.outliers import ground_spikes, low_outliers, sunken_groups
+from ingest.ground.outliers import ground_spikes, low_outliers, point_density, sunken_groups
 from ingest.ground.refill import LineFill
 from tdb.errors import InputError
 from tdb.fill import NearestFill, fill_lines, fill_nearest
@@ -47,9 +47,12 @@ from tdb.fill import NearestFill, fill_lines, fill_nearest
 @dataclass(frozen=True)
 class AutoParams:
     cell: float = 1.0  # seed grid (m)
+    envelope_points: float = 16.0  # points per cell of the lower envelope low outliers are judged on
+    flat_rejoin: bool = True  # cells the opening took for objects rejoin the surface within threshold alone
     max_window: float = 16.0  # largest opening window radius (m)
     slope: float = 0.15  # terrain slope the opening tolerates (rise/run)
-    threshold: float = 0.4  # height above the ground TIN still ground on flat land (m)
+    threshold: float = 0.2  # height above the ground surface still ground on flat land (m) ...
+    threshold_spacings: float = 0.2  # ... plus this much per metre of point spacing
     slope_scale: float = 1.25  # extra threshold per unit of local TIN slope
     below: float = 2.0  # points this far below the surface are not ground (m)
     refinements: int = 8  # at most; fewer once a pass changes under ``settled`` of the labels
@@ -112,7 +115,11 @@ def auto_ground(
             raise InputError(f"returns need one return number and one count per point ({len(xyz)})")
         returns = (number, count) if (count > 1).any() else None
     ground = np.zeros(len(xyz), bool)
-    keep = np.flatnonzero(~low_outliers(xyz, density=density))
+    keep = np.flatnonzero(~low_outliers(xyz, density=density, envelope_points=p.envelope_points))
+    # Between sparse points the interpolated surface misses more of the terrain's relief. The
+    # spacing comes from the density the outlier test uses: a block passes the whole survey's.
+    spacing = 1.0 / np.sqrt(density or point_density(xyz[:, :2]))
+    threshold = p.threshold + p.threshold_spacings * spacing
     pts = xyz[keep]
     grid = Grid.covering(pts[:, :2], p.cell)
     cells = CellSort.of(grid, pts)
@@ -124,6 +131,10 @@ def auto_ground(
     pits = progressive_opening(-zmin, cell=p.cell, max_window=p.pit_window, slope=p.pit_slope, offset=p.pit_depth)
     current = np.where(~objects & ~pits, idx, -1)
     at_points = grid.corner_sampler(pts[:, :2])
+    # A cell the opening took for an object holds ground only where its point lies on the
+    # surface beside it; with the slope's allowance too, the surface climbed a thicket's top
+    # one band per pass, as it climbs a steep flank.
+    rejoin = ~objects[grid.index(pts[:, :2])] if p.flat_rejoin else np.ones(len(pts), bool)
     is_ground = np.zeros(len(pts), bool)
     # later passes change few cells of the surface: only their runs of holes are filled again
     lines, nearest = LineFill(), NearestFill()
@@ -137,10 +148,10 @@ def auto_ground(
         surface, slope_map = ground_surface(grid, pts, current, lines=lines, nearest=nearest)
         h = pts[:, 2] - at_points(surface)
         before = is_ground
-        is_ground = (h <= p.threshold + p.slope_scale * at_points(slope_map)) & (h >= -p.below)
+        is_ground = (h <= threshold + p.slope_scale * at_points(slope_map)) & (h >= -p.below)
         # The next surface rests on the lowest ground point per cell: noise and
         # low clutter among the accepted points would otherwise lift it.
-        current = cells.lowest(is_ground)
+        current = cells.lowest(is_ground & (rejoin | (h <= threshold)))
         if np.count_nonzero(before != is_ground) >= p.settled * len(pts) and passes > 0:
             continue
         found = np.zeros(grid.shape, bool)

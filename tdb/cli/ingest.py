@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import exclude_option, input_options
+from tdb.cli.options import bbox_option, exclude_option, input_options
 from tdb.options import GroundMethod, LabelScheme
 
 
@@ -45,6 +45,7 @@ def _date(_ctx: click.Context, _param: click.Parameter, value: str | None) -> dt
     help="Height range (m) below which a tile is flat [default: 5 × the measured ground noise, at least 0.1 m].",
 )
 @click.option("--replace", is_flag=True, help="Replace an existing version of the same name.")
+@bbox_option()
 @click.option("--assume-metres", is_flag=True, help="Accept a file with no CRS as metres.")
 @input_options
 @exclude_option
@@ -61,6 +62,7 @@ def command(
     block: float | None,
     workers: int | None,
     scheduler: str | None,
+    bbox: tuple[float, float, float, float] | None,
     crs: str | None,
     labels: str,
     exclude: tuple[int, ...],
@@ -71,7 +73,8 @@ def command(
     A failure or interruption leaves the database as it was.
 
     CLOUD is a LAS/LAZ or text file, or a catalog of LAS/LAZ tiles: a directory or a quoted
-    glob pattern.
+    glob pattern. With --bbox only that area is modelled (block by block), and only its points
+    and a buffer around it are read: from a COPC file by range.
 
     \b
     Examples:
@@ -81,6 +84,7 @@ def command(
       tdb ingest tiles/ --db county.tdb --version 2024 --scheduler tcp://10.0.0.5:8786
       tdb ingest survey_2024.laz --db park.tdb --version 2024 --replace
       tdb ingest lidarhd.laz --db ign.tdb --version 2023 --exclude-classes 7,18,65
+      tdb ingest county.copc.laz --db town.tdb --version 2024 --bbox 500000,5500000,501000,5501000
     """
     import tdb
     from ingest.blocked import BLOCK, Blocking, ingest_blocked
@@ -97,10 +101,10 @@ def command(
         flat_threshold=flat_threshold,
         exclude=exclude,
     )
-    blocked = block is not None or scheduler is not None or is_catalog(cloud)
+    blocked = block is not None or scheduler is not None or bbox is not None or is_catalog(cloud)
     with tdb.open(db_path, create=True) as db, Bars(unit="step") as bars:
         if blocked:
-            blocking = Blocking(block=block or BLOCK, workers=workers, scheduler=scheduler)
+            blocking = Blocking(block=block or BLOCK, workers=workers, scheduler=scheduler, region=bbox)
             v = ingest_blocked(
                 str(cloud),
                 db,
