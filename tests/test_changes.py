@@ -229,7 +229,9 @@ def test_dem_of_difference_shows_the_new_mound_and_nothing_else(tmp_path):
     from queries.dod import difference_of_surfaces
     from tdb.errors import InputError
 
-    _new_mound(tmp_path, 1.2, 5.5)
+    # 8 m across: the 5.5 m dome's 45° flanks are steeper than the filter climbs into cells the
+    # opening took for objects, and its top is cut (docs/ground.md, known weak spots)
+    _new_mound(tmp_path, 1.2, 8.0)
     db = tdb.open(tmp_path / "m.tdb")
     scene = make_scene(seed=11, size=120)
     spot = _free_spot(scene)

@@ -51,9 +51,9 @@ class AutoParams:
     flat_rejoin: bool = True  # cells the opening took for objects rejoin the surface within threshold alone
     max_window: float = 16.0  # largest opening window radius (m)
     slope: float = 0.15  # terrain slope the opening tolerates (rise/run)
-    threshold: float = 0.2  # height above the ground surface still ground on flat land (m) ...
+    threshold: float = 0.3  # height above the ground surface still ground on flat land (m) ...
     threshold_spacings: float = 0.2  # ... plus this much per metre of point spacing
-    slope_scale: float = 1.25  # extra threshold per unit of local TIN slope
+    slope_scale: float = 1.0  # extra threshold per unit of local surface slope
     below: float = 2.0  # points this far below the surface are not ground (m)
     refinements: int = 8  # at most; fewer once a pass changes under ``settled`` of the labels
     settled: float = 2e-4
