@@ -19,7 +19,7 @@ from tdb.errors import InputError
 
 pytest.importorskip("copclib", reason="copclib writes the COPC files these tests read")
 
-from tests.copc_files import write_copc  # noqa: E402 (needs copclib)
+from tests.copc_files import write_copc
 
 
 @pytest.fixture(scope="module")
