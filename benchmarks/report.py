@@ -98,7 +98,8 @@ def ground_real_section(out: list[str]) -> None:
         "The second, independent check of the ground filter (issue 26): the files of `../shared/data/las` "
         "and `../shared/data/epochs` with their producers' ground class, which no setting here was made on "
         "(`python -m benchmarks.ground_real`). Low vegetation, water and noise classes are not scored "
-        f"(see the module). Type I / Type II / κ, %. Machine: {_machine(table)}.",
+        f"(see the module). Type I / Type II / κ, %; a mean is over the files a filter finished. "
+        f"Machine: {_machine(table)}.",
         "",
         "| file | " + " | ".join(names) + " |",
         "|---|" + "---|" * len(names),

@@ -14,7 +14,34 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from tdb.errors import TdbError, TdbIOError
+from tdb.errors import InputError, TdbError, TdbIOError
+
+PNG = (".png",)
+GEOTIFF = (".tif", ".tiff")
+GEOPACKAGE = (".gpkg",)
+POINTS = (".las", ".laz")
+
+
+def check_destination(path: str | os.PathLike[str], suffixes: tuple[str, ...] = (), *, what: str) -> Path:
+    """``path`` as an output ``what`` (a PNG picture, a GeoTIFF, ...) may be written to, checked
+    before any work: not a directory, not a terrain database, and named with one of ``suffixes``
+    (any name where none are given), since readers (QGIS among them) go by the name.
+
+    Raises
+    ------
+    TdbIOError
+        If ``path`` is a directory or a terrain database.
+    InputError
+        If its name does not end in one of ``suffixes``.
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise TdbIOError(f"{target}: a directory; {what} needs a file name")
+    if is_terrain_database(target):
+        raise TdbIOError(f"{target}: a terrain database; an output never replaces one")
+    if suffixes and target.suffix.lower() not in suffixes:
+        raise InputError(f"{target}: {what}'s name ends in {' or '.join(suffixes)}")
+    return target
 
 
 @contextmanager

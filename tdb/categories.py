@@ -160,13 +160,24 @@ def _shape(cat: Category, uv: NDArray[np.float64]) -> NDArray[np.float64]:
     return inclined if cat.feature == STEP_UP else -inclined
 
 
-@cache
-def templates(n: int = 5) -> NDArray[np.float64]:
-    """Canonical templates (115, n*n) normalised to [0, 1]; row 0 (flat) is all zeros."""
+MAX_SUBGRID = 65  # nodes per side: a 16 m tile at 0.25 m
+
+
+def check_subgrid(n: int) -> int:
+    """``n`` nodes per tile side, or an :class:`InputError` where templates cannot have that many."""
     if n < 5:
         raise InputError(
             f"a sub-grid of {n} nodes per side is too small: corners, edge middles and an interior need 5"
         )
+    if n > MAX_SUBGRID:
+        raise InputError(f"a sub-grid of {n} nodes per side is more than the {MAX_SUBGRID} a tile is drawn with")
+    return n
+
+
+@cache
+def templates(n: int = 5) -> NDArray[np.float64]:
+    """Canonical templates (115, n*n) normalised to [0, 1]; row 0 (flat) is all zeros."""
+    check_subgrid(n)
     uv = subgrid_uv(n)
     out = np.zeros((COUNT, n * n))
     for cat in all_categories()[1:]:

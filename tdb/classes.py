@@ -27,7 +27,9 @@ def parse_classes(text: str | Iterable[int]) -> tuple[int, ...]:
         If an entry is not an integer from 0 to 255.
     """
     if isinstance(text, str):
-        parts = [p.strip() for p in text.split(",") if p.strip()]
+        parts = [p.strip() for p in text.split(",")] if text.strip() else []
+        if "" in parts:
+            raise OptionError(f"{text!r}: an empty entry between commas; expected class codes like 7,18")
         if parts == ["none"]:
             return ()
         try:

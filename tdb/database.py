@@ -26,6 +26,7 @@ from sqlalchemy.exc import DatabaseError as SADatabaseError
 from sqlalchemy.exc import IntegrityError, OperationalError
 
 from tdb import blocks, schema
+from tdb.bbox import Box, check_bbox, clip_bbox
 from tdb.categories import all_categories
 from tdb.errors import DatabaseError, InputError, Remedy, TdbIOError, VersionExistsError, VersionNotFoundError
 from tdb.evidence import TileEvidence
@@ -540,8 +541,11 @@ class Database:
         not sorted (sorting a square kilometre's 250 000 rows would take longer than reading them).
         """
         name = version or self._only_version()
-        vid = self.version(name).id
+        v = self.version(name)
+        vid = v.id
         level = _level(level)
+        # Only what the version covers: an absurd box must not become an absurd raster later.
+        bbox = clip_bbox(bbox, _widened(v.stats.bounds, level), what=f"version {name!r}")
         xg, yg, code = self._block_tiles(vid, level, bbox)
         x, y, z, n = self._block_points(vid, level, bbox)
         return Area(name, level, bbox, xg, yg, code, x, y, z, n)
@@ -684,10 +688,18 @@ def _insert_blocks(
         conn.execute(table.insert(), rows)
 
 
+def _widened(bounds: Box | None, by: float) -> Box | None:
+    """A version's bounds out to the tiles that hold its edge points."""
+    if bounds is None:
+        return None
+    return (bounds[0] - by, bounds[1] - by, bounds[2] + by, bounds[3] + by)
+
+
 def _in_blocks(q: Any, table: Any, bbox: tuple[float, float, float, float] | None, side: float) -> Any:
     """``q`` restricted to the rows of ``table`` whose block (of ``side`` m) meets ``bbox``."""
     if bbox is None:
         return q
+    bbox = check_bbox(bbox)
     return q.where(
         table.c.bx.between(int(np.floor(bbox[0] / side)), int(np.floor(bbox[2] / side))),
         table.c.by.between(int(np.floor(bbox[1] / side)), int(np.floor(bbox[3] / side))),

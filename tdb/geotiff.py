@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import numpy as np
 
-from tdb.atomic import atomic_path
+from tdb.atomic import GEOTIFF, atomic_path, check_destination
 from tdb.raster import Raster
 
 
@@ -22,7 +21,7 @@ def write_geotiff(
     import rasterio
     from rasterio.transform import from_origin
 
-    p = Path(path)
+    p = check_destination(path, GEOTIFF, what="a GeoTIFF")
     data = np.where(np.isnan(raster.data), nodata, raster.data).astype(np.float32)
     profile = {
         "driver": "GTiff",

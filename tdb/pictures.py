@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tdb.atomic import write_bytes
+from tdb.atomic import PNG, check_destination, write_bytes
 from tdb.categories import NO_DATA, PEAK, PIT, RIDGE, STEP_DOWN, STEP_UP, VALLEY, all_categories, templates
 from tdb.raster import Raster
 from tdb.tiles import SUBGRID
@@ -69,6 +69,7 @@ def _figure(width: float, height: float) -> Any:
 
 
 def _save(fig: Any, path: str | os.PathLike[str], **kwargs: Any) -> None:
+    check_destination(path, PNG, what="a PNG picture")
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", **kwargs)
     write_bytes(path, buffer.getvalue())

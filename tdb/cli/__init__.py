@@ -16,6 +16,7 @@ from tdb import __version__
 from tdb.errors import Remedy, TdbError
 
 EXIT_ERROR = 1
+EXIT_USAGE = 2  # as click's own
 
 # How this command line says what a user can do about an error.
 REMEDIES = {
@@ -25,11 +26,17 @@ REMEDIES = {
 
 
 class TdbGroup(click.Group):
-    """A click group that reports :class:`TdbError` as one line (``--debug``: traceback)."""
+    """A click group that reports :class:`TdbError` and a bad command line as one line
+    (``--debug``: traceback)."""
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
+        except click.UsageError as exc:
+            command = f" {exc.ctx.command_path}" if exc.ctx is not None else ""
+            hint = f" (tdb{command.removeprefix(' tdb')} --help)" if exc.ctx is not None else ""
+            click.echo(f"tdb: error: {exc.format_message()}{hint}", err=True)
+            sys.exit(EXIT_USAGE)
         except TdbError as exc:
             if ctx.obj and ctx.obj.get("debug"):
                 traceback.print_exc()

@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from tdb.cli.options import bbox_option, level_option
-from tdb.cli.output import check_output, emit, output_options
+from tdb.cli.output import check_files, check_output, emit, output_options
 from tdb.crs import check_same_horizontal, height_reference_note
 from tdb.options import Coregistration
 
@@ -70,6 +70,7 @@ def command(
     from queries.dod import describe, difference_of_surfaces
 
     check_output(fmt, out, layer=layer, append=append)
+    check_files(png=png, tif=dod)
     # the shift found is kept for later queries where the database can be written
     with tdb.open(db_path, readonly=not tdb.database.writable(db_path)) as db:
         plan = check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=site(db, before))

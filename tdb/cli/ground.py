@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import exclude_option, input_options
+from tdb.cli.options import exclude_option, input_options, positive_metres
 from tdb.options import GroundMethod
 
 
@@ -23,7 +23,9 @@ from tdb.options import GroundMethod
     "--out", type=click.Path(path_type=Path), help="LAS/LAZ of the input points, class 2 ground, 1 other."
 )
 @click.option("--dtm", type=click.Path(path_type=Path), help="GeoTIFF of the dense ground model.")
-@click.option("--resolution", type=float, default=0.5, show_default=True, help="DTM cell size (m).")
+@click.option(
+    "--resolution", type=float, default=0.5, show_default=True, callback=positive_metres, help="DTM cell size (m)."
+)
 @click.option("--assume-metres", is_flag=True, help="Accept a file with no CRS as metres.")
 @input_options
 @exclude_option
@@ -56,9 +58,14 @@ def command(
     from ingest.dtm import dense_model
     from ingest.ground import classify_ground
     from ingest.readers import read, write_las
+    from tdb.atomic import GEOTIFF, POINTS, check_destination
     from tdb.cli.progress import Bars
     from tdb.units import to_metres
 
+    if out:
+        check_destination(out, POINTS, what="a point file")
+    if dtm:
+        check_destination(dtm, GEOTIFF, what="a GeoTIFF")
     raw = read(cloud, crs=crs, labels=labels)
     metric = to_metres(raw, assume_metres=assume_metres)
     with Bars(unit="tile") as bars:

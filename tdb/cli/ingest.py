@@ -104,7 +104,9 @@ def command(
     blocked = block is not None or scheduler is not None or bbox is not None or is_catalog(cloud)
     with tdb.open(db_path, create=True) as db, Bars(unit="step") as bars:
         if blocked:
-            blocking = Blocking(block=block or BLOCK, workers=workers, scheduler=scheduler, region=bbox)
+            blocking = Blocking(
+                block=BLOCK if block is None else block, workers=workers, scheduler=scheduler, region=bbox
+            )
             v = ingest_blocked(
                 str(cloud),
                 db,

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
 import click
 
+from tdb.bbox import check_bbox
+from tdb.errors import InputError
 from tdb.options import LabelScheme
 from tdb.tiles import LEVELS
 
@@ -50,6 +53,13 @@ def _classes(_ctx: click.Context, _param: click.Parameter, value: str) -> tuple[
         raise click.BadParameter(str(exc)) from None
 
 
+def positive_metres(_ctx: click.Context, _param: click.Parameter, value: float | None) -> float | None:
+    """A length in metres that must be a finite positive number."""
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise click.BadParameter(f"{value}: expected a positive length in metres")
+    return value
+
+
 def exclude_option(func: F) -> F:
     """``--exclude-classes`` for commands that filter ground."""
     return click.option(
@@ -75,10 +85,10 @@ def parse_bbox(
         raise click.BadParameter(f"{value!r}: expected four numbers x0,y0,x1,y1") from None
     if len(parts) != 4:
         raise click.BadParameter(f"{value!r}: expected four numbers x0,y0,x1,y1")
-    x0, y0, x1, y1 = parts
-    if not (x1 > x0 and y1 > y0):
-        raise click.BadParameter(f"{value!r}: need x0 < x1 and y0 < y1")
-    return (x0, y0, x1, y1)
+    try:
+        return check_bbox((parts[0], parts[1], parts[2], parts[3]))
+    except InputError as exc:
+        raise click.BadParameter(f"{value!r}: {exc}") from None
 
 
 def bbox_option(*, required: bool = False) -> Callable[[F], F]:

@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from tdb.atomic import write_text
+from tdb.atomic import GEOPACKAGE, GEOTIFF, PNG, check_destination, write_text
 from tdb.options import OutputFormat, parse
 
 F = Callable[..., Any]
@@ -44,6 +44,16 @@ def check_output(fmt: str, out: Path | None, *, layer: str | None = None, append
         raise click.UsageError("--format gpkg writes a file: give --out FILE.gpkg")
     if not gpkg and (layer is not None or append):
         raise click.UsageError("--layer and --append belong to --format gpkg")
+    if out is not None:
+        check_destination(out, GEOPACKAGE if gpkg else (), what="a GeoPackage" if gpkg else "the output")
+
+
+def check_files(*, png: Path | None = None, tif: Path | None = None) -> None:
+    """Refuse a picture or a GeoTIFF that could not be written, before any work is done."""
+    if png is not None:
+        check_destination(png, PNG, what="a PNG picture")
+    if tif is not None:
+        check_destination(tif, GEOTIFF, what="a GeoTIFF")
 
 
 def emit(

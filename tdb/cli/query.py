@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from tdb.cli.output import check_output, emit, output_options
+from tdb.cli.output import check_files, check_output, emit, output_options
 from tdb.errors import InputError
 
 
@@ -40,6 +40,7 @@ def command(
     from tdb.cli.progress import Bars
 
     check_output(fmt, out, layer=layer, append=append)
+    check_files(png=png)
     query = parse(text)
     with tdb.open(db_path, readonly=True) as db:
         with Bars(unit="line") as bars:

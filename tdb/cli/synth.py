@@ -39,8 +39,20 @@ def command(
     """
     from ingest.synth import apply_changes, changes_truth, make_scene, scene_truth, write_scene
     from ingest.synth.truth import write_json
+    from tdb.atomic import POINTS, check_destination
     from tdb.cli.progress import Bars
 
+    if changes and not changed:
+        raise click.UsageError("--changes describes the later survey: give --changed FILE too")
+    files = [p.resolve() for p in (out, truth, changed, changes) if p is not None]
+    if len(set(files)) < len(files):
+        raise click.UsageError("each output needs its own file")
+    for path in (out, changed):
+        if path is not None:
+            check_destination(path, POINTS, what="a point file")
+    for path in (truth, changes):
+        if path is not None:
+            check_destination(path, what="a GeoJSON file")
     scene = make_scene(seed=seed, size=size)
     with Bars(unit="block") as bars:
         n = write_scene(out, scene, density=density, seed=seed, progress=bars)

@@ -1,0 +1,46 @@
+"""Boxes x0, y0, x1, y1 given by users: checked once, clipped to what a version covers."""
+
+from __future__ import annotations
+
+import math
+
+from tdb.errors import InputError
+
+Box = tuple[float, float, float, float]
+
+MAX_COORDINATE = 1e9  # m: no projected coordinate on Earth reaches this
+
+
+def check_bbox(bbox: Box) -> Box:
+    """``bbox`` as floats, or an :class:`InputError` for a box that is not one.
+
+    Raises
+    ------
+    InputError
+        For non-finite numbers, coordinates beyond :data:`MAX_COORDINATE`, or x0 >= x1, y0 >= y1.
+    """
+    if len(bbox) != 4:
+        raise InputError(f"a box needs four numbers x0, y0, x1, y1, got {len(bbox)}")
+    x0, y0, x1, y1 = (float(v) for v in bbox)
+    if not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE for v in (x0, y0, x1, y1)):
+        raise InputError(f"a box needs finite coordinates within ±{MAX_COORDINATE:g} m, got {bbox}")
+    if not (x1 > x0 and y1 > y0):
+        raise InputError(f"a box needs x0 < x1 and y0 < y1, got {bbox}")
+    return (x0, y0, x1, y1)
+
+
+def clip_bbox(bbox: Box, bounds: Box | None, *, what: str) -> Box:
+    """``bbox`` cut to ``bounds`` (``what`` names them in the message); unchanged without bounds.
+
+    Raises
+    ------
+    InputError
+        If the two do not overlap.
+    """
+    x0, y0, x1, y1 = check_bbox(bbox)
+    if bounds is None:
+        return (x0, y0, x1, y1)
+    cut = (max(x0, bounds[0]), max(y0, bounds[1]), min(x1, bounds[2]), min(y1, bounds[3]))
+    if cut[0] >= cut[2] or cut[1] >= cut[3]:
+        raise InputError(f"the box {x0:g},{y0:g},{x1:g},{y1:g} does not meet {what}, which covers {bounds}")
+    return cut
