@@ -13,7 +13,7 @@ two TTP surveys are one park), and synthetic scenes (``tdb synth``: terrain with
 ditches, walls and embankments under trees and buildings, every point's class known). Their
 figures are printed per setting too: a setting that helps ISPRS and hurts them is suspect.
 
-    python -m benchmarks.ground_cv [--workers 2]
+    python -m benchmarks.ground_cv [--workers 2] [--table earlier.json]
 """
 
 from __future__ import annotations
@@ -21,7 +21,9 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
+import json
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -130,10 +132,20 @@ def cross_validate(table: list[dict[str, float]], pairs: list[tuple[str, str]]) 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--table", type=Path, help="reuse the scores of an earlier run's JSON (same grid)")
     args = parser.parse_args()
     settings = [dict(zip(GRID, values)) for values in itertools.product(*GRID.values())]
-    with ProcessPoolExecutor(args.workers) as pool:
-        table = list(pool.map(_score_setting, settings))
+    scored_at = None
+    if args.table:
+        # the scores of an earlier run (they do not depend on the defaults): choose again only
+        earlier = json.loads(args.table.read_text())
+        if [t["setting"] for t in earlier["table"]] != settings:
+            raise SystemExit(f"{args.table}: scored on another grid")
+        table = [t["scores"] for t in earlier["table"]]
+        scored_at = earlier.get("scored_at") or earlier.get("machine")
+    else:
+        with ProcessPoolExecutor(args.workers) as pool:
+            table = list(pool.map(_score_setting, settings))
     pairs = samples()
     tuned, held = cross_validate(table, pairs)
     default = settings.index({k: getattr(AutoParams(), k) for k in GRID})
@@ -173,6 +185,8 @@ def main() -> None:
         "summary": summary,
         "table": [{"setting": s, "scores": t} for s, t in zip(settings, table)],
     }
+    if scored_at:
+        doc["scored_at"] = scored_at
     print(save("ground_cv", doc))
 
 
