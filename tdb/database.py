@@ -135,6 +135,7 @@ def open(path: str | os.PathLike[str], *, create: bool = False, readonly: bool =
     if engine.dialect.name == "sqlite":
         # read only, the connection refuses writes and leaves the journal mode as it finds it
         event.listen(engine, "connect", _read_only_pragmas if readonly else _sqlite_pragmas)
+    event.listen(engine, "handle_error", _damaged(text))
     db = Database(engine, text, readonly=readonly)
     db._prepare(create=create)
     return db
@@ -158,6 +159,20 @@ def _execute_rows(cursor: Any, sql: str, cols: list[list[Any]]) -> None:
         )
     if count > whole:
         cursor.execute(f"{head} VALUES {', '.join([row] * (count - whole))}", flat[whole * width :])
+
+
+DAMAGE = ("malformed", "not a database", "database corrupt")  # SQLite's words for a damaged file
+
+
+def _damaged(name: str) -> Any:
+    """An engine hook that names a damaged file as such, whichever query meets the damage."""
+
+    def hook(context: Any) -> None:
+        message = str(getattr(context, "original_exception", "") or "")
+        if any(word in message for word in DAMAGE):
+            raise DatabaseError(f"{name}: the database file is damaged ({message.splitlines()[0]})") from None
+
+    return hook
 
 
 def _read_only_pragmas(dbapi_conn: Any, _record: Any) -> None:

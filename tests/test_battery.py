@@ -45,6 +45,10 @@ def site(tmp_path_factory):
     (root / "folder").mkdir()
     (root / "not.sqlite").write_bytes(b"SQLite format 3\x00" + bytes(200))
     (root / "readme.txt").write_text("no points here\n")
+    damaged = bytearray((root / "park.tdb").read_bytes())
+    start, end = len(damaged) // 4, 3 * len(damaged) // 4  # the tiles' and points' pages
+    damaged[start:end] = np.random.default_rng(1).bytes(end - start)
+    (root / "damaged.tdb").write_bytes(bytes(damaged))
     return root
 
 
@@ -163,6 +167,17 @@ CASES: list[list[str]] = [
     ["ground", S, "--out", DB],
     ["ground", S, "--dtm", "{root}/x.xyz"],
     ["ground", S, "--resolution", "nan"],
+    # a database with random bytes in its middle
+    *[
+        [*args, "--db", "{root}/damaged.tdb"]
+        for args in (
+            ["query", "SELECT ditch FROM a"],
+            ["query", "SELECT ridge FROM b"],
+            ["aoi", "--version", "a", "--bbox", "500000,5500000,500100,5500100", "--out", "{root}/dmg"],
+            ["diff", "a", "b"],
+        )
+    ],
+    ["check", "{root}/damaged.tdb"],
 ]
 
 

@@ -161,3 +161,27 @@ def test_an_output_onto_a_full_disk_fails_in_one_line_and_leaves_no_part(full_di
     assert {p.name for p in full_disk.iterdir()} <= {"filler", "park.tdb", "park.tdb-wal", "park.tdb-shm"}
     wal = full_disk / "park.tdb-wal"
     assert not wal.exists() or wal.stat().st_size == 0
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["query", "SELECT ditch FROM a", "--db", "{db}", "--out", "{ro}/d.geojson"],
+        ["query", "SELECT ditch FROM a", "--db", "{db}", "--format", "gpkg", "--out", "{ro}/d.gpkg"],
+        ["query", "SELECT ditch FROM a", "--db", "{db}", "--png", "{ro}/d.png"],
+        ["diff", "a", "b", "--db", "{db}", "--png", "{ro}/c.png"],
+        ["diff", "a", "b", "--db", "{db}", "--dod", "{ro}/c.tif"],
+        ["aoi", "--db", "{db}", "--version", "a", "--bbox", BOX, "--out", "{ro}/a"],
+        ["ground", "{laz}", "--out", "{ro}/g.laz"],
+        ["ground", "{laz}", "--dtm", "{ro}/g.tif"],
+        ["synth", "--size", "100", "--density", "1", "--out", "{ro}/s.laz"],
+        ["categories", "--atlas", "{ro}/atlas.png"],
+    ],
+    ids=lambda a: " ".join(a[:2]) + " " + a[-1].rsplit("/", 1)[-1],
+)
+def test_an_output_into_a_read_only_folder_is_one_line(read_only, built, args):
+    argv = [a.format(db=built / "park.tdb", ro=read_only, laz=built / "s.laz") if "{" in a else a for a in args]
+    r = CliRunner().invoke(main, argv)
+    assert r.exit_code != 0 and "Traceback" not in r.output, r.output
+    assert len([line for line in r.output.splitlines() if line.startswith("tdb: error:")]) == 1, r.output
+    assert sorted(p.name for p in read_only.iterdir()) == ["park.tdb"]

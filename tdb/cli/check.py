@@ -34,4 +34,10 @@ def command(db_path: Path, as_json: bool) -> None:
             tiles = "/".join(str(v.tiles[lv]) for lv in sorted(v.tiles))
             click.echo(f"- {v.name}: {v.points:,} points, tiles {tiles}: {'ok' if v.ok else 'rows missing'}")
     if not report.ok:
-        raise SystemExit(1)
+        from tdb.errors import DatabaseError
+
+        wrong = [v.name for v in report.versions if not v.ok]
+        what = (
+            f"integrity {report.integrity}" if report.integrity != "ok" else f"rows missing in {', '.join(wrong)}"
+        )
+        raise DatabaseError(f"{db_path}: {what}")
