@@ -4,7 +4,10 @@ FSite5 (628 k points) is written once as COPC (copclib, ``tests/copc_files.py``)
 ``--box`` m in the middle of the site is read from it by range and from the plain LAZ by a scan
 of the whole file, and the same box is ingested from each (``tdb ingest --bbox``).
 
-    python -m benchmarks.copc_read [--box 256]
+With ``--scene SIZE`` the survey is a synthetic scene of SIZE m at 4 pulses per m² instead
+(written as LAZ and as COPC), to see the range read where a whole scan costs what it does.
+
+    python -m benchmarks.copc_read [--box 256] [--scene 2000]
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ import tdb
 from benchmarks.common import DATA, save
 from ingest.blocked import Blocking, ingest_blocked
 from ingest.readers import read, read_box
+from ingest.synth import make_scene, write_scene
 from tests.copc_files import write_copc
 
 T = TypeVar("T")
@@ -38,17 +42,23 @@ def _timed(fn: Callable[[], T]) -> tuple[T, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--box", type=float, default=256.0)
+    parser.add_argument("--scene", type=float, help="a synthetic scene of this many metres instead of FSite5")
     args = parser.parse_args()
-    whole = read(SOURCE)
+    tmpdir = tempfile.TemporaryDirectory()
+    source = SOURCE
+    if args.scene:
+        source = Path(tmpdir.name) / f"scene{args.scene:.0f}.laz"
+        write_scene(source, make_scene(seed=1, size=args.scene), density=4.0, seed=1)
+    whole = read(source)
     lo, hi = whole.xyz[:, :2].min(axis=0), whole.xyz[:, :2].max(axis=0)
     mid = (lo + hi) / 2
     box = (mid[0] - args.box / 2, mid[1] - args.box / 2, mid[0] + args.box / 2, mid[1] + args.box / 2)
-    with tempfile.TemporaryDirectory() as tmp:
-        copc, write_s = _timed(lambda: write_copc(Path(tmp) / "fsite5.copc.laz", whole))
-        scan, scan_s = _timed(lambda: read_box(SOURCE, box))
+    with tmpdir as tmp:
+        copc, write_s = _timed(lambda: write_copc(Path(tmp) / "survey.copc.laz", whole))
+        scan, scan_s = _timed(lambda: read_box(source, box))
         ranged, range_s = _timed(lambda: read_box(copc, box))
         runs = {}
-        for name, path in (("laz", SOURCE), ("copc", copc)):
+        for name, path in (("laz", source), ("copc", copc)):
             db = tdb.open(Path(tmp) / f"{name}.tdb", create=True)
             v, seconds = _timed(
                 functools.partial(ingest_blocked, path, db, version="part", blocking=Blocking(region=box))
@@ -59,7 +69,7 @@ def main() -> None:
                 "points": v.stats.points,
             }
     doc = {
-        "file": SOURCE.name,
+        "file": source.name if not args.scene else f"synthetic scene of {args.scene:.0f} m, 4 pulses/m²",
         "file_points": len(whole.xyz),
         "box_m": args.box,
         "box_points": len(ranged.xyz),
@@ -72,7 +82,7 @@ def main() -> None:
         "ingest": runs,
     }
     print(doc)
-    print(save("copc_read", doc))
+    print(save("copc_read" if not args.scene else "copc_read_scene", doc))
 
 
 if __name__ == "__main__":
