@@ -2,8 +2,8 @@
 
 The octree is the usual one for airborne data: each point goes to a depth drawn at random, the
 deeper the likelier (four times per level, since airborne points spread in plan), and to the
-node of that depth holding it; so every level is a thinned copy of the whole survey, as a COPC
-writer such as untwine makes it.
+node of that depth holding it; so every level is a thinned copy of the whole survey and the
+deepest holds most points, as a COPC writer such as untwine makes it.
 """
 
 from __future__ import annotations
@@ -15,11 +15,13 @@ import numpy as np
 
 from tdb.cloud import PointCloud
 
-SCALE = 0.01  # m
+SCALE = 0.001  # m
+LEAF_POINTS = 20_000  # about this many points in a node of the deepest level
 
 
-def write_copc(path: Path, cloud: PointCloud, *, depth: int = 4, seed: int = 0) -> Path:
-    """Write ``cloud`` as a COPC file of ``depth`` + 1 octree levels; returns ``path``."""
+def write_copc(path: Path, cloud: PointCloud, *, depth: int | None = None, seed: int = 0) -> Path:
+    """Write ``cloud`` as a COPC file of ``depth`` + 1 octree levels (default: deep enough for
+    about :data:`LEAF_POINTS` points per node of the deepest level); returns ``path``."""
     import copclib as copc
 
     xyz = cloud.xyz
@@ -39,7 +41,10 @@ def write_copc(path: Path, cloud: PointCloud, *, depth: int = 4, seed: int = 0) 
     rec.x, rec.y, rec.z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
     rec.classification = cloud.classification
     rec.return_number, rec.number_of_returns = cloud.return_number, cloud.number_of_returns
-    level = np.minimum(np.random.default_rng(seed).geometric(0.75, len(xyz)) - 1, depth)
+    if depth is None:
+        depth = max(1, int(np.ceil(np.log(max(len(xyz), 1) / LEAF_POINTS) / np.log(4))))
+    # three quarters of the points at the deepest level, a quarter of the rest one level up, ...
+    level = depth - np.minimum(np.random.default_rng(seed).geometric(0.75, len(xyz)) - 1, depth)
     cell = np.floor((xyz - (centre - half)) / (2 * half / 2.0**depth)).astype(np.int64)
     cell >>= (depth - level)[:, None]
     _with_parents(level, cell, depth)
