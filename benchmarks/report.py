@@ -106,9 +106,7 @@ def ground_real_section(out: list[str]) -> None:
     ]
     files = [f for f in table[names[0]] if f != "mean"]
     for f in [*files, "mean"]:
-        cells = [
-            f"{table[n][f]['type1']:.2f} / {table[n][f]['type2']:.2f} / {table[n][f]['kappa']:.1f}" for n in names
-        ]
+        cells = [_three(table[n][f]) if f in table[n] else "no result in 5 min" for n in names]
         out.append(f"| {f} | " + " | ".join(cells) + " |")
     out.append("")
 
