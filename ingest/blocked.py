@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.catalog import Box, Catalog, is_catalog, open_catalog
+from ingest.catalog import Box, Catalog, is_catalog, open_catalog, overlaps
 from ingest.ground import classify_ground
 from ingest.ground.outliers import DENSITY_BLOCK
 from ingest.ground.tiling import available_cores, one_blas_thread_here
@@ -49,6 +49,7 @@ from ingest.noise import ground_noise
 from ingest.pipeline import IngestOptions, flat_threshold_for, median_sigma, seen_pct, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
 from ingest.readers import RECORD, from_records, in_box, iter_records
+from tdb.bbox import check_bbox, clip_bbox
 from tdb.categories import NO_DATA
 from tdb.classes import excluded
 from tdb.crs import as_crs
@@ -82,8 +83,8 @@ class Blocking:
 
     def __post_init__(self) -> None:
         coarsest = max(LEVELS)
-        if self.region is not None and not (self.region[0] < self.region[2] and self.region[1] < self.region[3]):
-            raise InputError(f"a region needs x0 < x1 and y0 < y1, got {self.region}")
+        if self.region is not None:
+            check_bbox(self.region)
         if self.block <= 0 or self.block % coarsest:
             raise InputError(f"a block's side must be a positive multiple of {coarsest} m, got {self.block}")
         if self.buffer < 0:
@@ -175,10 +176,7 @@ def _area(bounds: Box, region: Box | None) -> Box:
     """The survey's extent, or the part of it in ``region``, widened to whole 16 m tiles."""
     if region is None:
         return bounds
-    x0, y0 = max(region[0], bounds[0]), max(region[1], bounds[1])
-    x1, y1 = min(region[2], bounds[2]), min(region[3], bounds[3])
-    if x0 >= x1 or y0 >= y1:
-        raise InputError(f"the region {region} does not meet the survey, which covers {bounds}")
+    x0, y0, x1, y1 = clip_bbox(region, bounds, what="the survey")
     t = max(LEVELS)
     return (
         float(np.floor(x0 / t) * t),
@@ -236,7 +234,7 @@ def _scatter(
     seen, cells = 0, []
     report("reading", 0, total)
     for f in catalog.files:
-        if box is not None and not _touched(np.array([box]), f.bounds).size:
+        if box is not None and not overlaps(f.bounds, box):
             continue
         for rec in iter_records(f.path, chunk_size=CHUNK, box=box):
             use = ~excluded(rec["c"], exclude)

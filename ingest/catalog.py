@@ -53,7 +53,7 @@ class Catalog:
 
     def read(self, box: Box) -> PointCloud:
         """The points of every tile inside ``box`` (edges included), merged."""
-        parts = [rec for f in self.files if _overlaps(f.bounds, box) for rec in iter_records(f.path, box=box)]
+        parts = [rec for f in self.files if overlaps(f.bounds, box) for rec in iter_records(f.path, box=box)]
         rec = np.concatenate(parts) if parts else np.zeros(0, RECORD)
         return from_records(rec, crs=self.crs, source=f"catalog of {len(self.files)} files")
 
@@ -123,5 +123,5 @@ def _paths(source: str | os.PathLike[str] | Sequence[str | os.PathLike[str]]) ->
     return [p]
 
 
-def _overlaps(a: Box, b: Box) -> bool:
+def overlaps(a: Box, b: Box) -> bool:
     return a[0] <= b[2] and b[0] <= a[2] and a[1] <= b[3] and b[1] <= a[3]

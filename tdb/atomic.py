@@ -51,9 +51,7 @@ def atomic_path(path: str | os.PathLike[str], *, errors: tuple[type[BaseExceptio
     ``errors``: exception types of the writing library (besides ``OSError``) that mean the file
     cannot be written; they become a :class:`TdbIOError` naming ``path``.
     """
-    target = Path(path)
-    if is_terrain_database(target):
-        raise TdbIOError(f"{target}: a terrain database; an output never replaces one")
+    target = check_destination(path, what="an output")
     try:
         fd, name = tempfile.mkstemp(
             prefix=f".{target.stem}.", suffix=f".part{target.suffix}", dir=target.parent or "."

@@ -37,3 +37,27 @@ def small_cloud(small_scene):
     from ingest.synth import sample
 
     return sample(small_scene, density=3.0, seed=11)
+
+
+def two_surveys(root: Path, *, seed: int, density: float) -> Path:
+    """``root/s.laz``, a 100 m synthetic survey, and ``root/park.tdb`` holding two surveys of its
+    scene (versions a and b); returns ``root``."""
+    import tdb
+    from ingest.pipeline import ingest
+    from ingest.synth import make_scene, sample
+    from ingest.synth.writer import write_scene
+
+    scene = make_scene(seed=seed, size=100)
+    write_scene(root / "s.laz", scene, density=density, seed=seed)
+    db = tdb.open(root / "park.tdb", create=True)
+    ingest(sample(scene, density=density, seed=seed), db, version="a")
+    ingest(sample(scene, density=density, seed=seed + 1), db, version="b")
+    db.close()
+    return root
+
+
+def digest(path: Path) -> str:
+    """The SHA-256 of a file's bytes: to show it was left as it was."""
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()

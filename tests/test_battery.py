@@ -7,31 +7,20 @@ byte for byte as it was (the output files that would replace it included).
 
 from __future__ import annotations
 
-import hashlib
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
-import tdb
-from ingest.pipeline import ingest
-from ingest.synth import make_scene, sample
-from ingest.synth.writer import write_scene
 from tdb.cli import main
+from tests.conftest import digest, two_surveys
 
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory):
     """A folder with ``park.tdb`` (versions a, b), a survey ``s.laz`` and hostile files."""
-    root = tmp_path_factory.mktemp("battery")
-    scene = make_scene(seed=4, size=100)
-    write_scene(root / "s.laz", scene, density=1, seed=4)
-    db = tdb.open(root / "park.tdb", create=True)
-    ingest(sample(scene, density=1, seed=4), db, version="a")
-    ingest(sample(scene, density=1, seed=5), db, version="b")
-    db.close()
+    root = two_surveys(tmp_path_factory.mktemp("battery"), seed=4, density=1)
     (root / "empty.laz").write_bytes(b"")
     (root / "noise.laz").write_bytes(np.random.default_rng(0).bytes(4000))
     (root / "cut.laz").write_bytes((root / "s.laz").read_bytes()[:3000])
@@ -50,10 +39,6 @@ def site(tmp_path_factory):
     damaged[start:end] = np.random.default_rng(1).bytes(end - start)
     (root / "damaged.tdb").write_bytes(bytes(damaged))
     return root
-
-
-def _digest(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 DB = "{root}/park.tdb"
@@ -188,7 +173,7 @@ def test_the_battery_holds_at_least_a_hundred_cases():
 
 @pytest.mark.parametrize("args", CASES, ids=[" ".join(c)[:60] for c in CASES])
 def test_a_bad_input_is_refused_in_one_line_and_loses_nothing(site, args):
-    before = {p.name: _digest(p) for p in site.iterdir() if p.is_file()}
+    before = {p.name: digest(p) for p in site.iterdir() if p.is_file()}
     argv = [a.replace("{root}", str(site)) for a in args]
     result = CliRunner().invoke(main, argv)
     text = result.output  # standard output and error, interleaved
@@ -196,7 +181,7 @@ def test_a_bad_input_is_refused_in_one_line_and_loses_nothing(site, args):
     assert "Traceback" not in text, text
     errors = [line for line in text.splitlines() if "error" in line.lower()]
     assert len(errors) == 1 and errors[0].startswith("tdb: error:") and len(errors[0]) < 500, text
-    after = {p.name: _digest(p) for p in site.iterdir() if p.is_file() and p.name in before}
+    after = {p.name: digest(p) for p in site.iterdir() if p.is_file() and p.name in before}
     assert after == before  # nothing that was there changed, the database least of all
     for p in site.iterdir():  # nothing half-written left behind
         if p.name not in before:

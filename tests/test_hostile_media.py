@@ -3,7 +3,6 @@ make themselves; skipped cleanly where mounting is not allowed (not root, or no 
 
 from __future__ import annotations
 
-import hashlib
 import shutil
 import subprocess
 from pathlib import Path
@@ -12,10 +11,8 @@ import pytest
 from click.testing import CliRunner
 
 import tdb
-from ingest.pipeline import ingest
-from ingest.synth import make_scene, sample
-from ingest.synth.writer import write_scene
 from tdb.cli import main
+from tests.conftest import digest, two_surveys
 
 BOX = "500000,5500000,500060,5500060"
 
@@ -31,22 +28,12 @@ def _umount(point: Path) -> None:
     subprocess.run(["umount", "-l", str(point)], capture_output=True)
 
 
-def _digest(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     """A database of two versions and a survey, on ordinary disk, to copy onto the mounts."""
     if shutil.which("mount") is None:
         pytest.skip("no mount command")
-    root = tmp_path_factory.mktemp("media")
-    scene = make_scene(seed=6, size=100)
-    write_scene(root / "s.laz", scene, density=2, seed=6)
-    db = tdb.open(root / "park.tdb", create=True)
-    ingest(sample(scene, density=2, seed=6), db, version="a")
-    ingest(sample(scene, density=2, seed=7), db, version="b")
-    db.close()
+    root = two_surveys(tmp_path_factory.mktemp("media"), seed=6, density=2)
     return root
 
 
@@ -66,7 +53,7 @@ def read_only(built, tmp_path):
 
 def test_reading_commands_work_on_a_read_only_filesystem(read_only, tmp_path):
     db = str(read_only / "park.tdb")
-    before = _digest(read_only / "park.tdb")
+    before = digest(read_only / "park.tdb")
     for args in (
         ["info", db],
         ["query", "SELECT ditch FROM a", "--db", db, "--out", str(tmp_path / "d.geojson")],
@@ -87,13 +74,13 @@ def test_reading_commands_work_on_a_read_only_filesystem(read_only, tmp_path):
         r = CliRunner().invoke(main, args)
         assert r.exit_code == 0, (args, r.output)
         assert "Traceback" not in r.output
-    assert _digest(read_only / "park.tdb") == before
+    assert digest(read_only / "park.tdb") == before
     assert sorted(p.name for p in read_only.iterdir()) == ["park.tdb"]  # no -wal, no -shm
 
 
 def test_a_write_to_a_read_only_filesystem_is_one_line_and_changes_nothing(read_only, built):
     db = read_only / "park.tdb"
-    before = _digest(db)
+    before = digest(db)
     for args in (
         ["ingest", str(built / "s.laz"), "--db", str(db), "--version", "c"],
         ["rm", "a", "--db", str(db)],
@@ -103,7 +90,7 @@ def test_a_write_to_a_read_only_filesystem_is_one_line_and_changes_nothing(read_
         assert r.exit_code != 0 and "Traceback" not in r.output, (args, r.output)
         errors = [line for line in r.output.splitlines() if line.startswith("tdb: error:")]
         assert len(errors) == 1, r.output
-    assert _digest(db) == before
+    assert digest(db) == before
 
 
 @pytest.fixture
@@ -120,12 +107,12 @@ def full_disk(built, tmp_path):
 
 def test_an_ingest_onto_a_full_disk_fails_in_one_line_and_leaves_the_database_as_it_was(full_disk, built):
     db = full_disk / "park.tdb"
-    before = _digest(db)
+    before = digest(db)
     r = CliRunner().invoke(main, ["ingest", str(built / "s.laz"), "--db", str(db), "--version", "c"])
     assert r.exit_code != 0 and "Traceback" not in r.output, r.output
     assert len([line for line in r.output.splitlines() if line.startswith("tdb: error:")]) == 1, r.output
     assert [v.name for v in tdb.open(db, readonly=True).versions()] == ["a", "b"]
-    assert _digest(db) == before
+    assert digest(db) == before
     # no journal keeps the disk full (SQLite's shared-memory index is a fixed 32 KiB)
     wal = full_disk / "park.tdb-wal"
     assert not wal.exists() or wal.stat().st_size == 0

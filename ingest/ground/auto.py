@@ -115,11 +115,11 @@ def auto_ground(
             raise InputError(f"returns need one return number and one count per point ({len(xyz)})")
         returns = (number, count) if (count > 1).any() else None
     ground = np.zeros(len(xyz), bool)
+    # One density for the outlier test and the threshold: a block passes the whole survey's.
+    density = density or point_density(xyz[:, :2])
     keep = np.flatnonzero(~low_outliers(xyz, density=density, envelope_points=p.envelope_points))
-    # Between sparse points the interpolated surface misses more of the terrain's relief. The
-    # spacing comes from the density the outlier test uses: a block passes the whole survey's.
-    spacing = 1.0 / np.sqrt(density or point_density(xyz[:, :2]))
-    threshold = p.threshold + p.threshold_spacings * spacing
+    # Between sparse points the interpolated surface misses more of the terrain's relief.
+    threshold = p.threshold + p.threshold_spacings / np.sqrt(density)
     pts = xyz[keep]
     grid = Grid.covering(pts[:, :2], p.cell)
     cells = CellSort.of(grid, pts)
