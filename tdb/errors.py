@@ -87,3 +87,7 @@ class QueryError(TdbError, ValueError):
 
 class FilterError(TdbError, ValueError):
     """A feature filter definition is invalid."""
+
+
+class TdbWarning(UserWarning):
+    """Something tdb did differently from what was asked, or could not do, and went on without."""

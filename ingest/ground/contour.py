@@ -64,15 +64,57 @@ def relax(
         for _ in range(p.max_iterations):
             d = target - net
             a = attraction(d, strength=p.attraction, reach=reach)
-            force = p.elasticity * elasticity(net, cell) + a - gravity
-            dz = np.sign(force) * np.minimum(p.step, np.abs(force) * p.step)
-            # Near its point the net takes small steps and never jumps past it.
-            toward = (np.sign(dz) == np.sign(d)) & (a != 0)
-            dz = np.where(toward, np.sign(dz) * np.minimum(np.abs(dz), 0.5 * np.abs(d) + 0.001), dz)
+            dz = _step(p.elasticity * elasticity(net, cell) + a - gravity, d, a, p)
             net += dz
             if np.abs(dz).max() < p.tolerance:
                 break
     return net
+
+
+def relax_on(
+    target: NDArray[np.float64],
+    net: NDArray[np.float64],
+    mask: NDArray[np.bool_],
+    cell: float,
+    reach: float,
+    p: ContourParams,
+) -> NDArray[np.float64]:
+    """:func:`relax` on the ``mask`` cells only: a neighbour off the mask exerts no elasticity,
+    as if at the cell's own height, and the net off the mask stays where it was. Costs what
+    the mask holds, not the raster."""
+    rows, cols = net.shape
+    idx = np.flatnonzero(mask)
+    compact = np.full(rows * cols, -1, np.intp)
+    compact[idx] = np.arange(len(idx))
+    r, c = np.divmod(idx, cols)
+    neighbours = []
+    for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+        rr, cc = r + dr, c + dc
+        inside = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
+        nb = np.where(inside, compact[np.where(inside, rr * cols + cc, 0)], -1)
+        neighbours.append(np.where(nb >= 0, nb, np.arange(len(idx))))
+    t, v = target.ravel()[idx], net.ravel()[idx].copy()
+    for gravity in (p.gravity, 0.0):
+        for _ in range(p.max_iterations):
+            d = t - v
+            a = attraction(d, strength=p.attraction, reach=reach)
+            elastic = sum(np.arctan((v[nb] - v) / cell) for nb in neighbours)
+            dz = _step(p.elasticity * elastic + a - gravity, d, a, p)
+            v += dz
+            if len(dz) == 0 or np.abs(dz).max() < p.tolerance:
+                break
+    out = net.copy()
+    out.ravel()[idx] = v
+    return out
+
+
+def _step(
+    force: NDArray[np.float64], d: NDArray[np.float64], a: NDArray[np.float64], p: ContourParams
+) -> NDArray[np.float64]:
+    """The move the force asks for; near its point the net takes small steps and never jumps past it."""
+    dz = np.sign(force) * np.minimum(p.step, np.abs(force) * p.step)
+    toward = (np.sign(dz) == np.sign(d)) & (a != 0)
+    return np.where(toward, np.sign(dz) * np.minimum(np.abs(dz), 0.5 * np.abs(d) + 0.001), dz)
 
 
 def active_contour_net(xyz: NDArray[np.float64], *, params: ContourParams | None = None) -> tuple[Grid, NDArray]:

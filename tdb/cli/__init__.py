@@ -69,9 +69,23 @@ def main(ctx: click.Context, debug: bool) -> None:
 
 
 def _register() -> None:
-    from tdb.cli import aoi, categories, check, diff, ground, info, ingest, query, rename, rm, synth
+    from tdb.cli import (
+        aoi,
+        categories,
+        check,
+        classify,
+        diff,
+        ground,
+        info,
+        ingest,
+        query,
+        rename,
+        rm,
+        synth,
+        trees,
+    )
 
-    for module in (info, synth, ground, ingest, aoi, categories, query, diff, rm, rename, check):
+    for module in (info, synth, ground, classify, trees, ingest, aoi, categories, query, diff, rm, rename, check):
         main.add_command(module.command)
 
 

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
+import warnings
+from collections.abc import Iterator
 from types import TracebackType
 from typing import Any
 
 from tqdm import tqdm
+
+from tdb.errors import TdbWarning
 
 BAR = "{desc} {bar} {n_fmt}/{total_fmt} [{elapsed}]"
 COUNT = "{desc} {n_fmt} [{elapsed}]"  # a step whose size is not known
@@ -49,3 +54,20 @@ class Bars:
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
     ) -> None:
         self.close()
+
+
+@contextlib.contextmanager
+def echo_warnings() -> Iterator[None]:
+    """Library warnings (:class:`tdb.errors.TdbWarning`) as one ``tdb: warning:`` line each on stderr."""
+    import click
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TdbWarning)
+        try:
+            yield
+        finally:
+            for w in caught:
+                if issubclass(w.category, TdbWarning):
+                    click.echo(f"tdb: warning: {w.message}", err=True)
+                else:
+                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)

@@ -1,0 +1,84 @@
+"""Buildings as footprints: the object form of the roof regions.
+
+A roof region's outline on the texture raster is off by up to a cell. The footprint is
+drawn instead where the nearest return is a roof return of that building, on a raster
+``refine`` times finer: the edge then falls half-way between the last roof return and the
+first return beside it, whatever the density.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from ingest.ground.grids import Grid
+from ingest.objects.cover import BUILDING, BUILDING_CELL, Cover
+from ingest.objects.outline import outlines
+from tdb.objects import Building
+
+ROOF_TOP = 0.98  # quantile of the roof returns' heights taken as the roof's top (not an antenna)
+
+
+@dataclass(frozen=True)
+class FootprintParams:
+    """``refine``: footprint cells per texture cell, across; ``simplify`` (texture cells): the
+    outline's largest departure after simplification."""
+
+    refine: int = 4
+    simplify: float = 0.5
+
+
+def find_buildings(
+    xyz: NDArray[np.float64], cover: Cover, *, params: FootprintParams | None = None
+) -> list[Building]:
+    """Footprints and roof heights of the building regions of ``cover``, largest first."""
+    p = params or FootprintParams()
+    regions, n = ndimage.label(cover.cells == BUILDING_CELL, structure=np.ones((3, 3)))
+    if n == 0:
+        return []
+    grid = cover.top.grid
+    cell_of = cover.top.cells_of(xyz[:, :2])
+    region = regions.ravel()[cell_of]
+    roof = (cover.classes == BUILDING) & (region > 0)
+    # Only the returns near a roof can be the nearest to a footprint cell.
+    near = ndimage.binary_dilation(regions > 0, structure=np.ones((3, 3)), iterations=3).ravel()[cell_of]
+    tree = cKDTree(xyz[near, :2])
+    label = np.where(roof, region, 0)[near]
+    out = []
+    for k, sl in enumerate(ndimage.find_objects(regions), start=1):
+        if sl is None:
+            continue
+        mine = roof & (region == k)
+        if not mine.any():
+            continue
+        shape = _footprint(tree, label, k, grid, sl, p)
+        if shape is None:
+            continue
+        height = float(np.quantile(cover.height[mine], ROOF_TOP))
+        out.append(Building(shape.simplify(p.simplify * grid.cell), height))
+    return sorted(out, key=lambda b: -b.area)
+
+
+def _footprint(
+    tree: cKDTree, label: NDArray[np.intp], k: int, grid: Grid, sl: tuple[slice, slice], p: FootprintParams
+) -> Any:
+    rows, cols = sl
+    fine = grid.cell / p.refine
+    x0 = grid.x0 + (cols.start - 1) * grid.cell
+    y0 = grid.y0 + (rows.start - 1) * grid.cell
+    shape = ((rows.stop - rows.start + 2) * p.refine, (cols.stop - cols.start + 2) * p.refine)
+    fgrid = Grid(x0, y0, fine, shape)
+    xs, ys = fgrid.centres()
+    gx, gy = np.meshgrid(xs, ys)
+    _, nearest = tree.query(np.column_stack([gx.ravel(), gy.ravel()]))
+    mask = (label[nearest] == k).reshape(shape)
+    lab, m = ndimage.label(mask, structure=np.ones((3, 3)))
+    if m == 0:
+        return None
+    largest = int(np.argmax(np.bincount(lab.ravel())[1:])) + 1
+    return outlines(np.where(lab == largest, 0, -1), fgrid).get(0)

@@ -1,0 +1,232 @@
+"""Vegetation or building (seed §2.2): texture of the highest returns, then the roof check.
+
+The highest point of each cell more than ``min_height`` over the ground is classified by
+the median-filtered texture of the height raster (:mod:`ingest.objects.texture`), with a
+two-class mixture fitted to the survey (:mod:`ingest.objects.mixture`). Every region the
+texture calls building is then checked as the paper checks the small ones: inside its
+border a roof is nearly plane (small unfiltered second derivative) and returns few
+double echoes. Checking the large regions too costs nothing and keeps a smooth forest
+canopy, where the smoother of the two texture classes is itself vegetation, from being
+called a roof.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from ingest.ground.grids import Grid, quantised
+from ingest.ground.hills import point_spacing
+from ingest.objects.heights import TopRaster, above_ground
+from ingest.objects.mixture import fit_two
+from ingest.objects.texture import median_texture, second_derivative
+from tdb.cloud import PointCloud
+from tdb.errors import TdbWarning
+from tdb.fill import fill_nearest
+from tdb.raster import Raster
+
+# ASPRS classes written per point
+OTHER, GROUND, LOW, MEDIUM, HIGH, BUILDING = 1, 2, 3, 4, 5, 6
+VEGETATION_CELL, BUILDING_CELL = 1, 2
+MIN_CELL = 0.25  # m: the finest texture cell, whatever the density
+MIN_CELLS_TO_FIT = 20  # fewer tall cells than this are all vegetation: no mixture to fit
+_EPS = 1e-3  # m: keeps the logarithm of a perfectly plane roof finite
+
+
+@dataclass(frozen=True)
+class CoverParams:
+    """How points over the ground are told apart.
+
+    ``min_height`` (m): cells whose highest point is this far over the ground are classified
+    (the paper's 2 m). ``cell_spacings``: texture cell size in pulse spacings (1.5: nine in
+    ten cells hold a pulse). ``roof_departure`` (m): the largest mean second derivative inside
+    a roof's border: a plane roof departs from it only by the returns' noise.
+    ``echo_share``: the largest share of a roof's returns inside its border that come from
+    pulses with more than one return. ``min_building_area`` (m²): a smaller region is not a
+    building. ``low_height``, ``high_height`` (m): vegetation under ``low_height`` is class 1
+    (near the ground), up to ``min_height`` class 3, up to ``high_height`` class 4, above it 5.
+    """
+
+    min_height: float = 2.0
+    cell_spacings: float = 1.5
+    roof_departure: float = 0.5
+    echo_share: float = 0.2
+    min_building_area: float = 10.0
+    low_height: float = 0.5
+    high_height: float = 5.0
+
+
+@dataclass(frozen=True)
+class Cover:
+    """Classes per point (ASPRS codes) and per cell, and each point's height over the ground.
+
+    ``top`` is the texture raster's highest point per cell; ``cells`` (its rows, south to north):
+    0 low or empty, 1 vegetation, 2 building.
+    ``echo_test`` is false where the survey has single returns only, so no double-echo test ran.
+    """
+
+    classes: NDArray[np.uint8]
+    height: NDArray[np.float64]
+    top: TopRaster
+    cells: NDArray[np.uint8]
+    echo_test: bool
+
+
+def texture_cell(cloud: PointCloud, *, spacings: float) -> float:
+    """Texture cell (m): ``spacings`` × the spacing of the pulses (first returns)."""
+    first = cloud.return_number <= 1
+    xy = cloud.xyz[first, :2] if first.sum() >= 3 else cloud.xyz[:, :2]
+    return max(MIN_CELL, quantised(spacings * point_spacing(xy)))
+
+
+def classify_cover(
+    cloud: PointCloud,
+    ground: NDArray[np.bool_],
+    dtm: Raster,
+    *,
+    params: CoverParams | None = None,
+    skip: NDArray[np.bool_] | None = None,
+) -> Cover:
+    """Classify every point: ground (2), vegetation by height (3, 4, 5), building (6), other (1).
+
+    Parameters
+    ----------
+    cloud : the survey in metres.
+    ground : mask of its ground points.
+    dtm : its dense ground model.
+    params : see :class:`CoverParams`.
+    skip : points that are no object (noise): they keep their class, and their height is NaN.
+    """
+    p = params or CoverParams()
+    h = above_ground(cloud.xyz, dtm)
+    if skip is not None:
+        h[skip] = np.nan
+    grid = Grid.covering(cloud.xyz[:, :2], texture_cell(cloud, spacings=p.cell_spacings))
+    top = TopRaster.of(grid, cloud.xyz[:, :2], h)
+    cell = top.cells_of(cloud.xyz[:, :2])
+    multi = cloud.number_of_returns > 1
+    echo_test = bool(multi.any())
+    if not echo_test:
+        warnings.warn(
+            f"{cloud.source}: single returns only, so buildings are told from vegetation without the "
+            "double-echo test",
+            TdbWarning,
+            stacklevel=2,
+        )
+    tall = np.nan_to_num(h, nan=-np.inf) > p.min_height
+    cells = _cell_classes(top, p, _Echoes(cell, tall, multi & tall) if echo_test else None)
+    classes = _point_classes(h, ground, cells.ravel()[cell], p)
+    if skip is not None:
+        classes[skip] = cloud.classification[skip]
+    return Cover(classes, h, top, cells, echo_test)
+
+
+@dataclass(frozen=True)
+class _Echoes:
+    """Each point's cell, whether it is over ``min_height``, and whether it is so and one of
+    several returns of its pulse."""
+
+    cell: NDArray[np.intp]
+    tall: NDArray[np.bool_]
+    double: NDArray[np.bool_]
+
+    def shares(self, judged: NDArray[np.bool_], labels: NDArray[np.intp], n: int) -> NDArray[np.float64]:
+        """Per region, the share of its tall returns in ``judged`` cells that are double echoes."""
+        keep = judged.ravel()[self.cell] & self.tall
+        lab = labels.ravel()[self.cell[keep]]
+        returns = np.bincount(lab, minlength=n + 1)
+        doubles = np.bincount(lab, weights=self.double[keep], minlength=n + 1)
+        return doubles / np.maximum(returns, 1)
+
+
+def _cell_classes(top: TopRaster, p: CoverParams, echoes: _Echoes | None) -> NDArray[np.uint8]:
+    tall = np.nan_to_num(top.height, nan=-np.inf) > p.min_height
+    out = np.where(tall, VEGETATION_CELL, 0).astype(np.uint8)
+    if tall.sum() < MIN_CELLS_TO_FIT:
+        return out
+    z = np.asarray(fill_nearest(np.where(np.isfinite(top.height), np.maximum(top.height, 0.0), np.nan)), float)
+    features = np.log(median_texture(z, top.grid.cell)[tall] + _EPS)
+    smooth = fit_two(features).classify(features) == 0
+    roof = np.zeros(tall.shape, bool)
+    roof[tall] = smooth
+    roof &= _roofs(roof, second_derivative(z), top.grid.cell, p, echoes)
+    out[_roof_edges(roof, z, tall, p.roof_departure)] = BUILDING_CELL
+    return out
+
+
+def _roof_edges(
+    roof: NDArray[np.bool_], z: NDArray[np.float64], tall: NDArray[np.bool_], departure: float, *, passes: int = 2
+) -> NDArray[np.bool_]:
+    """The roofs grown by the cells at their edges whose highest return continues a roof's plane.
+
+    The median filter calls a roof's edge cells rough (each holds the edge's drop), so a roof
+    region stops short of its eaves. An edge cell whose highest return lies, within
+    ``departure``, on the line through the two roof cells behind it is roof.
+    """
+    grown = roof.copy()
+    for _ in range(passes):
+        add = np.zeros_like(grown)
+        for dr, dc in _NEIGHBOURS:
+            one, two = _shift(grown, dr, dc, False), _shift(grown, 2 * dr, 2 * dc, False)
+            predicted = 2 * _shift(z, dr, dc, np.nan) - _shift(z, 2 * dr, 2 * dc, np.nan)
+            add |= one & two & (np.abs(z - predicted) <= departure)
+        add &= tall & ~grown
+        if not add.any():
+            break
+        grown |= add
+    return grown
+
+
+_NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
+
+
+def _shift(a: NDArray, dr: int, dc: int, fill: object) -> NDArray:
+    """``a`` seen from each cell's neighbour at (dr, dc): out[i, j] = a[i + dr, j + dc]."""
+    out = np.full_like(a, fill)
+    rows, cols = a.shape
+    rs = slice(max(0, -dr), rows - max(0, dr))
+    cs = slice(max(0, -dc), cols - max(0, dc))
+    rd = slice(max(0, dr), rows - max(0, -dr))
+    cd = slice(max(0, dc), cols - max(0, -dc))
+    out[rs, cs] = a[rd, cd]
+    return out
+
+
+def _roofs(
+    candidate: NDArray[np.bool_], d2: NDArray[np.float64], cell_size: float, p: CoverParams, echoes: _Echoes | None
+) -> NDArray[np.bool_]:
+    """Cells of the candidate regions that pass the roof check."""
+    labels, n = ndimage.label(candidate, structure=np.ones((3, 3)))
+    if n == 0:
+        return candidate
+    inside = ndimage.binary_erosion(candidate, structure=np.ones((3, 3)))
+    # A region too narrow to have an inside is judged on all its cells.
+    has_inside = np.bincount(labels[inside], minlength=n + 1) > 0
+    judged = np.where(has_inside[labels], inside, candidate) & (labels > 0)
+    lab = labels[judged]
+    count = np.bincount(lab, minlength=n + 1)
+    departure = np.bincount(lab, weights=d2[judged], minlength=n + 1) / np.maximum(count, 1)
+    area = np.bincount(labels.ravel(), minlength=n + 1) * cell_size**2
+    ok = (departure <= p.roof_departure) & (area >= p.min_building_area)
+    if echoes is not None:
+        ok &= echoes.shares(judged, labels, n) <= p.echo_share
+    ok[0] = False
+    return ok[labels]
+
+
+def _point_classes(
+    h: NDArray[np.float64], ground: NDArray[np.bool_], cell_class: NDArray[np.uint8], p: CoverParams
+) -> NDArray[np.uint8]:
+    out = np.full(len(h), OTHER, np.uint8)
+    hh = np.nan_to_num(h, nan=-np.inf)
+    vegetation = cell_class != BUILDING_CELL
+    out[vegetation & (hh >= p.low_height)] = LOW
+    out[vegetation & (hh >= p.min_height)] = MEDIUM
+    out[vegetation & (hh >= p.high_height)] = HIGH
+    out[(cell_class == BUILDING_CELL) & (hh >= p.min_height)] = BUILDING
+    out[ground] = GROUND
+    return out

@@ -1,0 +1,139 @@
+"""Individual trees (seed §2.3): a crown model, smoothing at three scales, climbing, and
+the scale chosen per crown.
+
+The canopy model is the highest vegetation return per cell with the penetrations removed
+by the active contour of the ground filter applied from above: returns deeper than
+``penetration`` under the crown surface do not attract the net. It is smoothed at three
+scales; on each, every vegetation cell climbs to its local maximum (:mod:`climb`), and
+the scales are combined crown by crown by paraboloid fits (:mod:`crowns`). Each segment is
+a tree: its highest return gives the position and the height, its area the crown diameter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from ingest.ground.contour import ContourParams, relax_on
+from ingest.ground.grids import Grid
+from ingest.objects.climb import climb
+from ingest.objects.cover import HIGH, MEDIUM, Cover, texture_cell
+from ingest.objects.crowns import choose_scales
+from ingest.objects.heights import TopRaster
+from ingest.objects.outline import outlines
+from tdb.cloud import PointCloud
+from tdb.fill import fill_nearest
+from tdb.objects import Tree
+
+
+@dataclass(frozen=True)
+class TreeParams:
+    """How trees are found.
+
+    ``scales`` (m): the Gaussian smoothing radii, finest first; the finest splits most large
+    crowns, the coarsest splits none. ``cell_spacings``: canopy cell in pulse spacings.
+    ``penetration`` (m): the contour's attraction range under the crown surface.
+    ``iterations``: at most this many contour steps per phase. ``noise`` (m): the canopy
+    model's noise, the floor of the paraboloids' residuals. ``min_crown_area`` (m²): a smaller
+    segment is not a tree.
+    """
+
+    scales: tuple[float, ...] = (0.5, 1.0, 2.0)
+    cell_spacings: float = 1.0
+    penetration: float = 1.5
+    iterations: int = 60
+    noise: float = 0.2
+    min_crown_area: float = 2.0
+
+
+def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = None) -> list[Tree]:
+    """The trees of a classified survey (points of classes 4 and 5), largest first.
+
+    Parameters
+    ----------
+    cloud : the survey in metres.
+    cover : its classes and heights (:func:`ingest.objects.classify_cover`).
+    params : see :class:`TreeParams`.
+    """
+    p = params or TreeParams()
+    tall = np.isin(cover.classes, (MEDIUM, HIGH))
+    if tall.sum() < 3:
+        return []
+    grid = Grid.covering(cloud.xyz[tall, :2], texture_cell(cloud, spacings=p.cell_spacings))
+    near = _inside(grid, cloud.xyz[:, :2]) & np.isfinite(cover.height)
+    xyz = cloud.xyz[near]
+    top = TopRaster.of(grid, xyz[:, :2], cover.height[near])
+    mask = _crown_cells(top, tall[near])
+    canopy = crown_surface(np.where(mask, top.height, np.nan), mask, grid.cell, params=p)
+    scales = [climb(smoothed(canopy, mask, s / grid.cell), mask) for s in sorted(p.scales, reverse=True)]
+    min_cells = max(1, int(np.ceil(p.min_crown_area / grid.cell**2)))
+    labels = choose_scales(scales, canopy, grid.cell, noise=p.noise, min_cells=min_cells)
+    return _measure(labels, top, xyz, min_cells)
+
+
+def _inside(grid: Grid, xy: NDArray[np.float64]) -> NDArray[np.bool_]:
+    x1 = grid.x0 + grid.shape[1] * grid.cell
+    y1 = grid.y0 + grid.shape[0] * grid.cell
+    return (xy[:, 0] >= grid.x0) & (xy[:, 0] < x1) & (xy[:, 1] >= grid.y0) & (xy[:, 1] < y1)
+
+
+def _crown_cells(top: TopRaster, tall: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Cells whose highest return is a tree's; an empty cell takes its nearest filled cell's
+    answer, so a crown's edge falls between its last return and the first beside it instead
+    of shrinking by the empty cells along it."""
+    answer = np.where(top.index >= 0, tall[np.maximum(top.index, 0)].astype(float), np.nan)
+    return fill_nearest(answer) > 0.5
+
+
+def crown_surface(
+    height: NDArray[np.float64], mask: NDArray[np.bool_], cell: float, *, params: TreeParams
+) -> NDArray[np.float64]:
+    """The outer crown surface: the active contour relaxed onto the highest returns from above.
+
+    The net starts at the highest return among each cell's neighbours, just above the data,
+    so it needs few steps; empty cells (NaN) have no attraction and follow their neighbours.
+    Only the crowns' cells (``mask``) move: the gaps between crowns are no part of a crown.
+    """
+    filled = fill_nearest(height)
+    start = ndimage.maximum_filter(filled, size=3, mode="nearest")
+    contour = ContourParams(max_iterations=params.iterations)
+    return -relax_on(-height, -start, mask, cell, params.penetration, contour)
+
+
+def smoothed(surface: NDArray[np.float64], mask: NDArray[np.bool_], sigma: float) -> NDArray[np.float64]:
+    """Gaussian smoothing (``sigma`` in cells) of the crowns with the ground, height 0, around
+    them: a crown's edge then falls towards the ground as the crown does, where smoothing the
+    crowns alone would raise false maxima along their edges."""
+    return np.where(mask, ndimage.gaussian_filter(np.where(mask, surface, 0.0), sigma, mode="constant"), -np.inf)
+
+
+def _measure(labels: NDArray[np.intp], top: TopRaster, xyz: NDArray[np.float64], min_cells: int) -> list[Tree]:
+    on = (labels >= 0) & (top.index >= 0)
+    n = int(labels.max()) + 1 if (labels >= 0).any() else 0
+    if n == 0:
+        return []
+    cells = np.bincount(labels[labels >= 0], minlength=n)
+    lab, h, idx = labels[on], top.height[on], top.index[on]
+    order = np.lexsort((h, lab))
+    last = np.r_[lab[order][1:] != lab[order][:-1], True]
+    best = np.full(n, -1, np.intp)
+    best[lab[order][last]] = idx[order][last]
+    height = np.full(n, np.nan)
+    height[lab[order][last]] = h[order][last]
+    keep = (cells >= min_cells) & (best >= 0)
+    shapes = outlines(np.where(keep[np.maximum(labels, 0)] & (labels >= 0), labels, -1), top.grid)
+    area = cells * top.grid.cell**2
+    trees = [
+        Tree(
+            float(xyz[best[k], 0]),
+            float(xyz[best[k], 1]),
+            float(height[k]),
+            float(2 * np.sqrt(area[k] / np.pi)),
+            shapes[int(k)],
+        )
+        for k in np.flatnonzero(keep)
+    ]
+    return sorted(trees, key=lambda t: -t.height)
