@@ -56,6 +56,7 @@ from tdb.crs import as_crs
 from tdb.database import Database, Version, VersionInfo, check_version_name
 from tdb.errors import CRSError, InputError, Remedy, TdbIOError, VersionExistsError
 from tdb.evidence import TileEvidence
+from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
 from tdb.stats import ReductionStats, VersionStats
@@ -112,6 +113,8 @@ class _Result:
     noise: float
     flat_threshold: float
     evidence: TileEvidence
+    trees: list[Tree]
+    buildings: list[Building]
 
 
 def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and how)
@@ -373,7 +376,14 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
         evidence=s.evidence.take(
             (s.evidence.xg >= x0) & (s.evidence.xg < x1) & (s.evidence.yg >= y0) & (s.evidence.yg < y1)
         ),
+        # an object belongs to the block its top (a tree) or its centroid (a building) falls in
+        trees=[t for t in s.objects.trees if x0 <= t.x < x1 and y0 <= t.y < y1],
+        buildings=[bd for bd in s.objects.buildings if _owns(blk.core, bd.footprint.centroid)],
     )
+
+
+def _owns(core: Box, point: Any) -> bool:
+    return bool(core[0] <= point.x < core[2] and core[1] <= point.y < core[3])
 
 
 def _crop(dtm: Raster, box: Box) -> Raster:
@@ -472,6 +482,7 @@ def _store(  # noqa: PLR0913 (the version and what is recorded of it)
         levels=levels,  # type: ignore[arg-type]
         points=points,
         evidence=evidence,
+        objects=([t for r in results for t in r.trees], [bd for r in results for bd in r.buildings]),
         info=VersionInfo(
             acquired=acquired,
             source=f"{len(source.files)} file(s): {source.files[0].path}"

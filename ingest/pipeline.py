@@ -16,6 +16,7 @@ from ingest.ground import classify_ground
 from ingest.ground.grids import quantised
 from ingest.ground.hills import point_spacing
 from ingest.noise import ground_noise
+from ingest.objects import Objects, find_objects
 from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
 from tdb.classes import NOISE, excluded, parse_classes, user_classes
@@ -45,6 +46,7 @@ class Survey:
     flat_threshold: float
     model: TerrainModel
     evidence: TileEvidence
+    objects: Objects
 
 
 @dataclass(frozen=True)
@@ -112,7 +114,8 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
     finest = model.levels[min(model.levels)]
     spacing = quantised(point_spacing(metric.xyz[:, :2]))
     evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing)
-    return Survey(metric, ground, dtm, noise, threshold, model, evidence)
+    objects = find_objects(metric, ground, dtm, progress=report, skip=excluded(metric.classification, o.exclude))
+    return Survey(metric, ground, dtm, noise, threshold, model, evidence, objects)
 
 
 def ingest(
@@ -176,6 +179,7 @@ def ingest(
             stats=stats,
         ),
         evidence=result.evidence,
+        objects=(result.objects.trees, result.objects.buildings),
         replace=replace,
         progress=report,
     )

@@ -26,7 +26,7 @@ KEYWORDS = {
     *("select", "from", "to", "where", "and", "at", "level", "in", "bbox", "category"),
     *("order", "by", "asc", "desc", "limit"),
 }
-ATTRIBUTES = {"length", "tiles", "depth", "height", "shoulder", "width", "area", "dz", "lod"}
+ATTRIBUTES = {"length", "tiles", "depth", "height", "shoulder", "width", "area", "dz", "lod", "crown_diameter"}
 TEXT_ATTRIBUTES = {"kind", "description"}
 
 

@@ -17,6 +17,7 @@ from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import QueryError
 from tdb.geojson import feature
+from tdb.objects import building_features, tree_features
 from tdb.options import Measure
 from tdb.progress import Progress, or_silent
 
@@ -63,10 +64,24 @@ def _select(db: Database, q: Query, text: str, progress: Progress | None = None)
         raise QueryError(
             "category IN (...) belongs to SELECT tiles", text=text, position=text.lower().find("category")
         )
+    if q.what in OBJECTS:
+        return _objects(db, q)
     matches = find(db, q.version, q.what, level=q.level, bbox=q.bbox)
     if "width" in {c.attribute for c in q.conditions} | {q.order_by}:
         return _by_stretch(db, q, matches, progress=progress)
     return [f for f in map(_feature_of, matches) if _keep(f["properties"], q)]
+
+
+OBJECTS = ("trees", "buildings")  # what stands on the ground, stored per version
+
+
+def _objects(db: Database, q: Query) -> list[dict[str, Any]]:
+    """Trees (crowns, with their top's x and y) or buildings (footprints) meeting the box."""
+    if q.what == "trees":
+        found = tree_features(db.trees(q.version, bbox=q.bbox))
+    else:
+        found = building_features(db.buildings(q.version, bbox=q.bbox))
+    return [f for f in found if _keep(f["properties"], q)]
 
 
 def _changes(db: Database, q: Query, text: str) -> list[dict[str, Any]]:

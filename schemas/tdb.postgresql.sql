@@ -1,4 +1,4 @@
--- tdb schema version 3 (postgresql); generated from tdb/schema.py
+-- tdb schema version 4 (postgresql); generated from tdb/schema.py
 
 CREATE TABLE categories (
 	code SMALLINT NOT NULL, 
@@ -28,6 +28,17 @@ CREATE TABLE versions (
 	created VARCHAR(32) NOT NULL, 
 	PRIMARY KEY (id), 
 	UNIQUE (name)
+);
+
+CREATE TABLE buildings (
+	version INTEGER NOT NULL, 
+	x FLOAT(53) NOT NULL, 
+	y FLOAT(53) NOT NULL, 
+	height FLOAT NOT NULL, 
+	area FLOAT NOT NULL, 
+	footprint BYTEA NOT NULL, 
+	PRIMARY KEY (version, x, y), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
 );
 
 CREATE TABLE c16 (
@@ -111,5 +122,16 @@ CREATE TABLE tile_blocks (
 	by INTEGER NOT NULL, 
 	codes BYTEA NOT NULL, 
 	PRIMARY KEY (version, level, bx, by), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+);
+
+CREATE TABLE trees (
+	version INTEGER NOT NULL, 
+	x FLOAT(53) NOT NULL, 
+	y FLOAT(53) NOT NULL, 
+	height FLOAT NOT NULL, 
+	crown_diameter FLOAT NOT NULL, 
+	crown BYTEA NOT NULL, 
+	PRIMARY KEY (version, x, y), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
 );

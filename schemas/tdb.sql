@@ -1,4 +1,4 @@
--- tdb schema version 3 (sqlite); generated from tdb/schema.py
+-- tdb schema version 4 (sqlite); generated from tdb/schema.py
 
 CREATE TABLE categories (
 	code SMALLINT NOT NULL, 
@@ -29,6 +29,18 @@ CREATE TABLE versions (
 	PRIMARY KEY (id), 
 	UNIQUE (name)
 );
+
+CREATE TABLE buildings (
+	version INTEGER NOT NULL, 
+	x FLOAT NOT NULL, 
+	y FLOAT NOT NULL, 
+	height FLOAT NOT NULL, 
+	area FLOAT NOT NULL, 
+	footprint BLOB NOT NULL, 
+	PRIMARY KEY (version, x, y), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+)
+ WITHOUT ROWID;
 
 CREATE TABLE c16 (
 	version INTEGER NOT NULL, 
@@ -118,6 +130,18 @@ CREATE TABLE tile_blocks (
 	"by" INTEGER NOT NULL, 
 	codes BLOB NOT NULL, 
 	PRIMARY KEY (version, level, bx, "by"), 
+	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
+)
+ WITHOUT ROWID;
+
+CREATE TABLE trees (
+	version INTEGER NOT NULL, 
+	x FLOAT NOT NULL, 
+	y FLOAT NOT NULL, 
+	height FLOAT NOT NULL, 
+	crown_diameter FLOAT NOT NULL, 
+	crown BLOB NOT NULL, 
+	PRIMARY KEY (version, x, y), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
 )
  WITHOUT ROWID;

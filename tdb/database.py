@@ -30,6 +30,8 @@ from tdb.bbox import Box, check_bbox, clip_bbox
 from tdb.categories import all_categories
 from tdb.errors import DatabaseError, InputError, Remedy, TdbIOError, VersionExistsError, VersionNotFoundError
 from tdb.evidence import TileEvidence
+from tdb.object_store import read_buildings, read_trees, write_objects
+from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
 from tdb.stats import VersionStats
 
@@ -253,7 +255,8 @@ class Database:
 
     def _upgrade(self, found: int) -> None:
         """Add the tables a newer schema has: from 1, the block tables, filled from the rows of every
-        version; from 2, the evidence table (versions stored before it have no evidence)."""
+        version; from 2, the evidence table (versions stored before it have no evidence); from 3, the
+        trees and buildings tables (empty for the versions before)."""
         with self.transaction() as conn:
             schema.metadata.create_all(conn, checkfirst=True)
             old = conn.execute(select(schema.versions.c.id)).scalars().all() if found < 2 else []
@@ -326,7 +329,7 @@ class Database:
         known = ", ".join(v.name for v in self.versions()) or "none"
         raise VersionNotFoundError(f"{self.name}: no version {name!r} (versions: {known})")
 
-    def write_version(
+    def write_version(  # noqa: PLR0913 (each part of a version, and how it is written)
         self,
         name: str,
         *,
@@ -334,13 +337,15 @@ class Database:
         points: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]],
         info: VersionInfo | None = None,
         evidence: TileEvidence | None = None,
+        objects: tuple[list[Tree], list[Building]] | None = None,
         replace: bool = False,
         progress: Progress | None = None,
     ) -> Version:
         """Store one survey: tiles per level (xg, yg, code) and points (x, y, z, n), in one transaction.
 
         ``info``: what is recorded of the survey beside its model (:class:`VersionInfo`);
-        ``evidence``: the ground evidence of its 2 m tiles (:mod:`tdb.evidence`);
+        ``evidence``: the ground evidence of its 2 m tiles (:mod:`tdb.evidence`); ``objects``: its
+        trees and buildings (:mod:`tdb.objects`);
         ``progress`` is told ``("database", rows written, rows)`` (:mod:`tdb.progress`).
 
         Raises
@@ -382,6 +387,8 @@ class Database:
             self._write_point_blocks(conn, vid, *points)
             if evidence is not None:
                 self._write_evidence(conn, vid, evidence)
+            if objects is not None:
+                write_objects(conn, vid, *objects)
             x, y, z, n = points
             order = np.lexsort((y, x))
             x, y, z, n = x[order], y[order], z[order], n[order]
@@ -471,7 +478,7 @@ class Database:
 
     def _delete(self, conn: Connection, vid: int) -> None:
         tables = (*schema.level_tables.values(), schema.points, schema.tile_blocks, schema.point_blocks)
-        for table in (*tables, schema.evidence_blocks):
+        for table in (*tables, schema.evidence_blocks, schema.trees, schema.buildings):
             conn.execute(table.delete().where(table.c.version == vid))
         c = schema.coregistrations.c
         conn.execute(schema.coregistrations.delete().where((c.before == vid) | (c.after == vid)))
@@ -563,7 +570,20 @@ class Database:
         bbox = clip_bbox(bbox, _widened(v.stats.bounds, level), what=f"version {name!r}")
         xg, yg, code = self._block_tiles(vid, level, bbox)
         x, y, z, n = self._block_points(vid, level, bbox)
-        return Area(name, level, bbox, xg, yg, code, x, y, z, n)
+        return Area(
+            name,
+            level,
+            bbox,
+            xg,
+            yg,
+            code,
+            x,
+            y,
+            z,
+            n,
+            self.trees(name, bbox=bbox),
+            self.buildings(name, bbox=bbox),
+        )
 
     def _block_tiles(
         self, vid: int, level: int, bbox: tuple[float, float, float, float] | None
@@ -600,6 +620,23 @@ class Database:
             rows, bbox or (-inf, -inf, inf, inf), fields=len(TileEvidence.FIELDS)
         )
         return TileEvidence(xg, yg, *fields)
+
+    def trees(self, version: str, *, bbox: tuple[float, float, float, float] | None = None) -> list[Tree]:
+        """The trees of ``version`` whose crown meets ``bbox`` (all where None), tallest first;
+        none for a version stored before trees were kept."""
+        vid = self.version(version).id
+        if schema.trees.name not in self._tables:
+            return []
+        with self.engine.connect() as conn:
+            return read_trees(conn, vid, bbox)
+
+    def buildings(self, version: str, *, bbox: tuple[float, float, float, float] | None = None) -> list[Building]:
+        """The buildings of ``version`` whose footprint meets ``bbox`` (all where None), largest first."""
+        vid = self.version(version).id
+        if schema.buildings.name not in self._tables:
+            return []
+        with self.engine.connect() as conn:
+            return read_buildings(conn, vid, bbox)
 
     def coregistration(self, before: str, after: str, setting: str) -> dict[str, Any] | None:
         """The shift stored for ``after`` against ``before`` found with ``setting`` (a text that
@@ -663,7 +700,8 @@ class DatabaseCheck:
 
 @dataclass(frozen=True)
 class Area:
-    """What :meth:`Database.aoi` returns: tiles (xg, yg, code) and points (x, y, z, n)."""
+    """What :meth:`Database.aoi` returns: tiles (xg, yg, code), points (x, y, z, n), and the
+    trees and buildings that reach into the area."""
 
     version: str
     level: int
@@ -675,6 +713,8 @@ class Area:
     y: NDArray[np.float64]
     z: NDArray[np.float64]
     n: NDArray[np.uint8]
+    trees: list[Tree] = field(default_factory=list)
+    buildings: list[Building] = field(default_factory=list)
 
 
 class _RowCount:

@@ -293,10 +293,33 @@ def area_picture(path: str | os.PathLike[str], area: Any, surface: Raster) -> No
     entries += [(FEATURE_LABELS[f], (*FEATURE_COLOURS[f], 0.45), "patch") for f in sorted(features)]
     if NO_DATA in present:
         entries.append(("no data", (0.0, 0.0, 0.0, 0.45), "patch"))
+    entries += _draw_objects(ax, getattr(area, "trees", []), getattr(area, "buildings", []))
     _map_frame(ax, surface.crs, surface.bounds)
     _legend(ax, entries, title=f"{area.level} m tile category")
     ax.set_title(f"version {area.version}: {area.level} m tile categories over the rebuilt surface", fontsize=10)
     _save(fig, path, dpi=100, bbox_inches="tight")
+
+
+TREE_COLOUR = (0.05, 0.45, 0.1)
+BUILDING_COLOUR = (0.75, 0.1, 0.1)
+
+
+def _draw_objects(ax: Any, trees: list[Any], buildings: list[Any]) -> list[tuple[str, Any, str]]:
+    """Crowns outlined in green with their tops, footprints outlined in red; their legend entries."""
+    entries: list[tuple[str, Any, str]] = []
+    for what, colour, shapes in (
+        ("tree crowns", TREE_COLOUR, [t.crown for t in trees]),
+        ("buildings", BUILDING_COLOUR, [b.footprint for b in buildings]),
+    ):
+        for shape in shapes:
+            for part in getattr(shape, "geoms", [shape]):
+                px, py = part.exterior.xy
+                ax.plot(px, py, color=colour, lw=0.7)
+        if shapes:
+            entries.append((f"{what} ({len(shapes)})", colour, "line"))
+    if trees:
+        ax.plot([t.x for t in trees], [t.y for t in trees], "+", color=TREE_COLOUR, ms=3, mew=0.6)
+    return entries
 
 
 def change_map(

@@ -7,7 +7,9 @@ by its lower-left corner in whole metres. ``categories``: what each code means.
 tiles and points cut into square blocks stored as BLOBs, for reading an area at
 once (:mod:`tdb.blocks`). ``evidence_blocks``: the ground evidence of the 2 m tiles
 (:mod:`tdb.evidence`) in the same blocks. ``coregistrations``: the shifts found between
-two versions (JSON), kept so that later queries reuse them.
+two versions (JSON), kept so that later queries reuse them. ``trees`` and ``buildings``: the
+objects found on the ground (seed §2.2–2.3), keyed by the tree's top or the footprint's
+centroid, with the outline as WKB.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from sqlalchemy import (
 
 from tdb.tiles import LEVELS
 
-SCHEMA_VERSION = 3  # 2: tile_blocks, point_blocks; 3: evidence_blocks, coregistrations
+SCHEMA_VERSION = 4  # 2: tile_blocks, point_blocks; 3: evidence_blocks, coregistrations; 4: trees, buildings
 LEVEL_TABLES = {level: f"c{level}" for level in LEVELS}
 
 metadata = MetaData()
@@ -124,6 +126,31 @@ coregistrations = Table(
     Column("after", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
     Column("setting", String(200), primary_key=True),
     Column("shift", Text, nullable=False),
+)
+
+
+trees = Table(
+    "trees",
+    metadata,
+    Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+    Column("x", Float(53), primary_key=True),
+    Column("y", Float(53), primary_key=True),
+    Column("height", Float, nullable=False),
+    Column("crown_diameter", Float, nullable=False),
+    Column("crown", LargeBinary, nullable=False),
+    sqlite_with_rowid=False,
+)
+
+buildings = Table(
+    "buildings",
+    metadata,
+    Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+    Column("x", Float(53), primary_key=True),
+    Column("y", Float(53), primary_key=True),
+    Column("height", Float, nullable=False),
+    Column("area", Float, nullable=False),
+    Column("footprint", LargeBinary, nullable=False),
+    sqlite_with_rowid=False,
 )
 
 

@@ -111,7 +111,7 @@ def test_a_version_two_database_is_upgraded_and_its_versions_have_no_evidence(tm
         conn.execute(text("UPDATE meta SET value = '2' WHERE key = 'schema_version'"))
     db.close()
     db = tdb.open(path)
-    assert db.schema_version() == 3
+    assert db.schema_version() == tdb.schema.SCHEMA_VERSION
     assert len(db.evidence("a")) == 0
     ingest(from_arrays(*g.T, crs=CRS), db, version="b")
     assert len(db.evidence("b")) > 0

@@ -22,11 +22,10 @@ PARAMETERS = 4  # a + b x + c y + d (x² + y²)
 @dataclass(frozen=True)
 class Fits:
     """Least-squares paraboloids per segment: residual sum of squares (floored by the noise),
-    cell count, and whether the paraboloid is a dome whose top lies inside the segment."""
+    cell count."""
 
     rss: NDArray[np.float64]
     count: NDArray[np.float64]
-    dome: NDArray[np.bool_]
 
 
 def paraboloids(
@@ -57,12 +56,7 @@ def paraboloids(
     beta = np.linalg.solve(gram, rhs[..., None])[..., 0]
     resid = z - np.einsum("ij,ij->i", design, beta[labels])
     rss = np.bincount(labels, weights=resid**2, minlength=n)
-    curvature = beta[:, 3]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        apex = np.hypot(beta[:, 1], beta[:, 2]) / (2 * np.abs(curvature))
-    spread = np.sqrt(np.bincount(labels, weights=u * u + v * v, minlength=n) / safe)
-    dome = (curvature < 0) & (apex <= spread)
-    return Fits(np.maximum(rss, count * noise**2), count, dome)
+    return Fits(np.maximum(rss, count * noise**2), count)
 
 
 def choose_scales(
@@ -90,13 +84,11 @@ def choose_scales(
         piece_parent[pieces] = parent
         k = np.bincount(piece_parent, minlength=n_parent)
         rss_split = np.bincount(piece_parent, weights=piece_fit.rss, minlength=n_parent)
-        domes = np.bincount(piece_parent, weights=piece_fit.dome, minlength=n_parent)
         count = whole_fit.count
         logn = np.log(np.maximum(count, 2))
         whole = count * np.log(whole_fit.rss / np.maximum(count, 1)) + PARAMETERS * logn
         split = count * np.log(rss_split / np.maximum(count, 1)) + PARAMETERS * k * logn
-        # Every piece must be a crown of its own: a dome with its top inside it, not a flank.
-        take = (k > 1) & (split < whole) & (domes == k)
+        take = (k > 1) & (split < whole)
         new = np.where(take[parent], n_parent + pieces, parent)
         current = np.full(current.shape, -1, np.intp)
         current[on] = new

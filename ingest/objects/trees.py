@@ -38,10 +38,11 @@ class TreeParams:
     ``penetration`` (m): the contour's attraction range under the crown surface.
     ``iterations``: at most this many contour steps per phase. ``noise`` (m): the canopy
     model's noise, the floor of the paraboloids' residuals. ``min_crown_area`` (m²): a smaller
-    segment is not a tree.
+    segment is not a tree. The scales were chosen by leave-one-group-out cross-validation
+    (``benchmarks/objects_cv.py``).
     """
 
-    scales: tuple[float, ...] = (0.5, 1.0, 2.0)
+    scales: tuple[float, ...] = (0.35, 0.7, 1.4)
     cell_spacings: float = 1.0
     penetration: float = 1.5
     iterations: int = 60

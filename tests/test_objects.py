@@ -1,0 +1,277 @@
+"""Vegetation, buildings and trees (seed §2.2–2.3): the pieces on known answers, the whole on
+synthetic scenes whose every point's class, building and tree is known, and on real forest."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ingest.dtm import dense_model
+from ingest.ground import classify_ground
+from ingest.objects import find_objects, survey_objects
+from ingest.objects.climb import climb
+from ingest.objects.crowns import choose_scales, paraboloids
+from ingest.objects.mixture import fit_two
+from ingest.objects.texture import max_slope, second_derivative
+from tdb.cloud import PointCloud
+from tdb.errors import TdbWarning
+from tests.conftest import data_file
+
+# --- the pieces -------------------------------------------------------------------------------
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(3, 25), st.integers(3, 25))
+def test_climb_ends_on_local_maxima_and_only_goes_up(seed: int, rows: int, cols: int) -> None:
+    rng = np.random.default_rng(seed)
+    z = rng.normal(size=(rows, cols))
+    mask = rng.random((rows, cols)) < 0.8
+    labels = climb(z, mask)
+    assert np.array_equal(labels >= 0, mask)
+    flat = z.ravel()
+    on = mask.ravel()
+    # every cell's maximum is at least as high as the cell, and is a maximum of the mask
+    assert np.all(flat[labels.ravel()[on]] >= flat[on])
+    for root in np.unique(labels[mask]):
+        r, c = divmod(int(root), cols)
+        window = (slice(max(0, r - 1), r + 2), slice(max(0, c - 1), c + 2))
+        assert z[r, c] >= np.where(mask[window], z[window], -np.inf).max()
+
+
+def test_climb_finds_two_hills_and_a_plateau_has_one_top() -> None:
+    y, x = np.mgrid[0:20, 0:40].astype(float)
+    z = np.exp(-((x - 10) ** 2 + (y - 10) ** 2) / 20) + np.exp(-((x - 30) ** 2 + (y - 10) ** 2) / 20)
+    labels = climb(z, np.ones(z.shape, bool))
+    assert len(np.unique(labels)) == 2
+    assert len(np.unique(climb(np.ones((5, 5)), np.ones((5, 5), bool)))) == 1
+
+
+def test_mixture_separates_two_clouds_and_names_the_smoother_first() -> None:
+    rng = np.random.default_rng(3)
+    a = rng.normal([-2.0, -1.0], 0.4, size=(600, 2))
+    b = rng.normal([1.0, 1.5], 0.6, size=(300, 2))
+    x = np.vstack([b, a])
+    mix = fit_two(x)
+    assert mix.means[0, 0] < mix.means[1, 0]
+    labels = mix.classify(x)
+    assert np.mean(labels[300:] == 0) > 0.97 and np.mean(labels[:300] == 1) > 0.97
+
+
+def test_texture_of_a_tilted_plane_and_of_a_kink() -> None:
+    y, x = np.mgrid[0:10, 0:10].astype(float)
+    plane = 0.3 * x + 0.1 * y
+    assert np.allclose(second_derivative(plane)[1:-1, 1:-1], 0.0)
+    # the steepest of the eight neighbours: along x (0.3), y (0.1) or a diagonal ((0.3 ± 0.1) / √2)
+    slope = max_slope(plane, 2.0)[1:-1, 1:-1]
+    assert np.allclose(slope, max(0.3, 0.1, 0.4 / np.sqrt(2)) / 2.0)
+    ridge = -np.abs(x - 5)
+    assert second_derivative(ridge)[5, 5] == pytest.approx(1.0)
+    assert second_derivative(ridge)[5, 2] == pytest.approx(0.0)
+
+
+def _dome(x: np.ndarray, y: np.ndarray, cx: float, cy: float, h: float, r: float) -> np.ndarray:
+    return h - 0.6 * h * ((x - cx) ** 2 + (y - cy) ** 2) / r**2
+
+
+def test_paraboloids_fit_a_dome_exactly_and_a_cone_not() -> None:
+    y, x = (v.ravel().astype(float) for v in np.mgrid[0:21, 0:21])
+    labels = np.zeros(len(x), np.intp)
+    fit = paraboloids(labels, (x, y), _dome(x, y, 10, 10, 20, 10), 1, noise=0.01)
+    assert fit.rss[0] == pytest.approx(len(x) * 0.01**2) and fit.count[0] == len(x)
+    cone = paraboloids(labels, (x, y), 20 - np.hypot(x - 10, y - 10), 1, noise=0.01)
+    assert cone.rss[0] > 10 * fit.rss[0]
+
+
+def test_scale_choice_splits_two_crowns_and_keeps_one() -> None:
+    rows, cols = np.mgrid[0:20, 0:40]
+    x, y = cols.astype(float), rows.astype(float)
+    two = np.maximum(_dome(x, y, 10, 10, 20, 9), _dome(x, y, 29, 10, 18, 9))
+    one = _dome(x, y, 20, 10, 20, 18)
+    whole = np.zeros(x.shape, np.intp)
+    halves = (x >= 20).astype(np.intp)
+    assert len(np.unique(choose_scales([whole, halves], two, 1.0, noise=0.05, min_cells=4))) == 2
+    assert len(np.unique(choose_scales([whole, halves], one, 1.0, noise=0.05, min_cells=4))) == 1
+
+
+# --- the whole, on synthetic scenes -----------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def scene_objects():
+    from ingest.synth import make_scene, sample
+
+    scene = make_scene(seed=5, size=160)
+    cloud = sample(scene, density=8.0, seed=5)
+    ground = classify_ground(cloud)
+    dtm = dense_model(cloud.xyz[ground], resolution=0.5, crs=cloud.crs)
+    return scene, cloud, ground, dtm, find_objects(cloud, ground, dtm)
+
+
+def test_buildings_and_vegetation_told_apart(scene_objects) -> None:
+    _, cloud, _, _, found = scene_objects
+    truth = cloud.classification
+    tall = (found.cover.height > 2) & np.isin(truth, (5, 6))
+    assert np.mean((found.classes[tall] == 6) == (truth[tall] == 6)) >= 0.97
+    assert set(np.unique(found.classes)) <= {1, 2, 3, 4, 5, 6}
+
+
+def test_building_footprints_match_the_truth(scene_objects) -> None:
+    scene, _, _, _, found = scene_objects
+    assert len(found.buildings) == len(scene.buildings)
+    for b in scene.buildings:
+        best = max(
+            b.footprint.intersection(f.footprint).area / b.footprint.union(f.footprint).area
+            for f in found.buildings
+        )
+        assert best >= 0.85
+        assert found.buildings[0].height > 2
+
+
+def test_trees_found_with_their_height_and_crown(scene_objects) -> None:
+    from benchmarks.objects_score import score_trees
+
+    scene, _, _, _, found = scene_objects
+    truth = np.array([[t.x, t.y, t.height, 2 * t.crown_radius] for t in scene.trees])
+    got = np.array([[t.x, t.y, t.height, t.crown_diameter] for t in found.trees])
+    s = score_trees(truth, got)
+    assert s.f1 >= 0.9
+    assert s.position_rmse <= 0.5 and s.height_rmse <= 0.5
+    for t in found.trees:
+        # the top lies in its crown (or on its outline's cell edge)
+        assert t.crown.is_valid and t.crown.distance(shapely.Point(t.x, t.y)) < 0.5
+        assert t.crown_diameter == pytest.approx(2 * np.sqrt(t.crown.area / np.pi), rel=0.01)
+
+
+def test_single_returns_still_classify_with_a_warning(scene_objects) -> None:
+    _, cloud, ground, dtm, _ = scene_objects
+    single = replace(
+        cloud, return_number=np.ones(len(cloud), np.uint8), number_of_returns=np.ones(len(cloud), np.uint8)
+    )
+    with pytest.warns(TdbWarning, match="double-echo"):
+        again = find_objects(single, ground, dtm)
+    truth = cloud.classification
+    tall = (again.cover.height > 2) & np.isin(truth, (5, 6))
+    assert np.mean((again.classes[tall] == 6) == (truth[tall] == 6)) >= 0.95
+
+
+def test_a_bare_field_has_no_trees_and_no_buildings() -> None:
+    rng = np.random.default_rng(1)
+    n = 20_000
+    xyz = np.column_stack([rng.uniform(0, 100, n), rng.uniform(0, 100, n), rng.normal(0, 0.03, n) + 50])
+    cloud = PointCloud(xyz, np.zeros(n, np.uint8), np.ones(n, np.uint8), np.ones(n, np.uint8), crs="EPSG:25832")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TdbWarning)
+        found = survey_objects(cloud)
+    assert found.trees == [] and found.buildings == []
+    assert set(np.unique(found.classes)) <= {1, 2}
+
+
+def test_excluded_points_keep_their_class(small_cloud) -> None:
+    cloud = small_cloud
+    noise = cloud.classification == 7
+    assert noise.any()
+    found = survey_objects(cloud)
+    assert np.all(found.classes[noise] == 7)
+
+
+# --- real forest ------------------------------------------------------------------------------
+
+
+def test_mixed_conifer_trees_against_its_segmentation() -> None:
+    """lidR's MixedConifer carries a segmentation of its trees (``treeID``): most of its trees
+    over 5 m must be found within 1.5 m of their top, and few trees found where it has none."""
+    import laspy
+
+    from benchmarks.objects_score import score_trees
+    from ingest.readers import read
+
+    path = data_file("las", "MixedConifer.laz")
+    cloud = read(path)
+    found = survey_objects(cloud)
+    tid = np.asarray(laspy.read(path).treeID)
+    h = found.cover.height
+    rows = []
+    for i in np.unique(tid[tid > 0]):
+        m = (tid == i) & (h > 2)
+        if m.sum() >= 3:
+            k = np.flatnonzero(m)[np.argmax(h[m])]
+            rows.append([cloud.x[k], cloud.y[k], h[k], np.nan])
+    got = np.array([[t.x, t.y, t.height, t.crown_diameter] for t in found.trees])
+    s = score_trees(np.array(rows), got, diameters=False)
+    assert s.precision >= 0.8
+    assert s.recall >= MIXED_CONIFER_RECALL
+
+
+MIXED_CONIFER_RECALL = 0.5
+
+
+# --- stored per version, read by area and by query ------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def stored(tmp_path_factory):
+    import tdb
+    from ingest.pipeline import ingest
+    from ingest.synth import make_scene, sample
+
+    scene = make_scene(seed=5, size=160)
+    db = tdb.open(tmp_path_factory.mktemp("objects") / "o.tdb", create=True)
+    ingest(sample(scene, density=8.0, seed=5), db, version="v1")
+    return scene, db
+
+
+def test_ingest_stores_the_trees_and_buildings(stored, scene_objects) -> None:
+    scene, db = stored
+    found = scene_objects[-1]
+    trees = db.trees("v1")
+    assert len(trees) == len(found.trees) > 0
+    assert {(round(t.x, 3), round(t.y, 3)) for t in trees} == {(round(t.x, 3), round(t.y, 3)) for t in found.trees}
+    assert all(t.crown.is_valid and t.crown.area > 0 for t in trees)
+    assert len(db.buildings("v1")) == len(scene.buildings)
+
+
+def test_area_reads_and_queries_return_the_objects(stored) -> None:
+    from queries.run import run
+
+    _, db = stored
+    trees = db.trees("v1")
+    tall = run(db, "SELECT trees FROM v1 WHERE height > 15")
+    assert tall and len(tall) == sum(t.height > 15 for t in trees)
+    assert all(
+        f["properties"]["height"] > 15 and f["geometry"]["type"] in ("Polygon", "MultiPolygon") for f in tall
+    )
+    t = trees[0]
+    box = (t.x - 1, t.y - 1, t.x + 1, t.y + 1)
+    near = run(db, f"SELECT trees FROM v1 WHERE bbox({', '.join(map(str, box))})")
+    assert any(abs(f["properties"]["x"] - t.x) < 1e-3 for f in near)
+    assert all(shapely.geometry.shape(f["geometry"]).intersects(shapely.box(*box)) for f in near)
+    big = run(db, "SELECT buildings FROM v1 WHERE area > 100")
+    assert big and all(f["properties"]["area"] > 100 for f in big)
+    assert len(big) == sum(b.area > 100 for b in db.buildings("v1"))
+    area = db.aoi(box, version="v1")
+    assert any(abs(tr.x - t.x) < 1e-6 for tr in area.trees)
+
+
+def test_a_replaced_or_removed_version_takes_its_objects_along(tmp_path) -> None:
+    from sqlalchemy import text
+
+    import tdb
+    from ingest.pipeline import ingest
+    from ingest.synth import make_scene, sample
+
+    cloud = sample(make_scene(seed=6, size=100), density=4.0, seed=6)
+    db = tdb.open(tmp_path / "r.tdb", create=True)
+    ingest(cloud, db, version="v1")
+    first = len(db.trees("v1"))
+    ingest(cloud, db, version="v1", replace=True)
+    assert len(db.trees("v1")) == first > 0
+    db.delete_version("v1")
+    with db.engine.connect() as conn:
+        assert conn.execute(text("SELECT count(*) FROM trees")).scalar() == 0
+        assert conn.execute(text("SELECT count(*) FROM buildings")).scalar() == 0
