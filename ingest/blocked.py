@@ -31,6 +31,7 @@ import dataclasses
 import itertools
 import os
 import tempfile
+import warnings
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -46,6 +47,7 @@ from ingest.ground import classify_ground
 from ingest.ground.outliers import DENSITY_BLOCK
 from ingest.ground.tiling import available_cores, one_blas_thread_here
 from ingest.noise import ground_noise
+from ingest.objects.cover import SINGLE_RETURNS
 from ingest.pipeline import IngestOptions, flat_threshold_for, median_sigma, seen_pct, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
 from ingest.readers import RECORD, from_records, in_box, iter_records
@@ -54,7 +56,7 @@ from tdb.categories import NO_DATA
 from tdb.classes import excluded
 from tdb.crs import as_crs
 from tdb.database import Database, Version, VersionInfo, check_version_name
-from tdb.errors import CRSError, InputError, Remedy, TdbIOError, VersionExistsError
+from tdb.errors import CRSError, InputError, Remedy, TdbIOError, TdbWarning, VersionExistsError
 from tdb.evidence import TileEvidence
 from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
@@ -115,6 +117,7 @@ class _Result:
     evidence: TileEvidence
     trees: list[Tree]
     buildings: list[Building]
+    echo_test: bool  # whether the block's returns told double echoes apart (see ingest.objects)
 
 
 def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and how)
@@ -344,7 +347,9 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
     if not own.any() or len(rec) < 3:
         return None
     cloud = from_records(rec, crs=crs, source=source)
-    with one_blas_thread():
+    # A worker's warnings would not reach the caller: what they say is returned and said once.
+    with one_blas_thread(), warnings.catch_warnings():
+        warnings.simplefilter("ignore", TdbWarning)
         s = survey(cloud, options=o)
     m = s.model
     levels = {}
@@ -379,6 +384,7 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
         # an object belongs to the block its top (a tree) or its centroid (a building) falls in
         trees=[t for t in s.objects.trees if x0 <= t.x < x1 and y0 <= t.y < y1],
         buildings=[bd for bd in s.objects.buildings if _owns(blk.core, bd.footprint.centroid)],
+        echo_test=s.objects.cover.echo_test,
     )
 
 
@@ -428,6 +434,8 @@ def _store(  # noqa: PLR0913 (the version and what is recorded of it)
 ) -> Version:
     if not results:
         raise InputError("the survey holds no points to model")
+    if not any(r.echo_test for r in results):
+        warnings.warn(f"{source.files[0].path}: {SINGLE_RETURNS}", TdbWarning, stacklevel=2)
     levels = {
         lv: tuple(np.concatenate([r.levels[lv][k] for r in results]) for k in range(3)) for lv in results[0].levels
     }

@@ -83,7 +83,10 @@ def test_ingest_tells_every_step_to_one_progress_callable(plane, tmp_path):
     with tdb.open(tmp_path / "a.tdb", create=True) as db:
         ingest(from_arrays(x, y, z, crs="EPSG:32632"), db, version="v", progress=lambda s, d, t: steps.append(s))
     order = list(dict.fromkeys(steps))
-    assert order == ["read", "units", "ground filter", "dense model", "categories and reduction", "database"]
+    assert order == [
+        *("read", "units", "ground filter", "dense model", "categories and reduction"),
+        *("vegetation and buildings", "buildings", "trees", "database"),
+    ]
 
 
 def test_categories_with_a_too_small_subgrid_is_a_clean_error(tmp_path):

@@ -14,30 +14,38 @@ def climb(surface: NDArray[np.float64], mask: NDArray[np.bool_]) -> NDArray[np.i
 
     Each cell steps to its highest neighbour on the mask where that is higher than itself
     (ties broken by position, so a plateau has one maximum, not one per cell). Steps are
-    followed by pointer doubling: log₂ of the longest path passes, not one per cell.
+    followed by pointer doubling: log₂ of the longest path passes, not one per cell. The work
+    is on the mask's cells only.
     """
     rows, cols = surface.shape
-    flat = np.arange(rows * cols).reshape(rows, cols)
-    order = np.lexsort((flat.ravel(), np.where(mask, surface, -np.inf).ravel()))
-    rank = np.empty(rows * cols, np.int64)
-    rank[order] = np.arange(rows * cols)
-    rank2 = np.where(mask, rank.reshape(rows, cols), -1)
-    best_rank = rank2.copy()
-    best = flat.copy()
-    padded_rank = np.pad(rank2, 1, constant_values=-1)
-    padded_flat = np.pad(flat, 1, constant_values=0)
+    at = np.flatnonzero(mask.ravel())
+    out = np.full(rows * cols, -1, np.intp)
+    if len(at) == 0:
+        return out.reshape(rows, cols)
+    compact = np.full(rows * cols, -1, np.intp)
+    compact[at] = np.arange(len(at))
+    # rank among the mask's cells by height, then position: unique, so ties have an order
+    rank = np.empty(len(at), np.int64)
+    rank[np.lexsort((at, surface.ravel()[at]))] = np.arange(len(at))
+    r, c = np.divmod(at, cols)
+    best = np.arange(len(at))
+    best_rank = rank.copy()
     for dr, dc in _NEIGHBOURS:
-        r = padded_rank[1 + dr : 1 + dr + rows, 1 + dc : 1 + dc + cols]
-        up = r > best_rank
-        best_rank = np.where(up, r, best_rank)
-        best = np.where(up, padded_flat[1 + dr : 1 + dr + rows, 1 + dc : 1 + dc + cols], best)
-    parent = best.ravel()
+        rr, cc = r + dr, c + dc
+        inside = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
+        nb = np.where(inside, compact[np.where(inside, rr * cols + cc, 0)], -1)
+        nb_rank = np.where(nb >= 0, rank[np.maximum(nb, 0)], -1)
+        up = nb_rank > best_rank
+        best_rank = np.where(up, nb_rank, best_rank)
+        best = np.where(up, nb, best)
+    parent = best
     while True:
         grand = parent[parent]
         if np.array_equal(grand, parent):
             break
         parent = grand
-    return np.where(mask.ravel(), parent, -1).reshape(rows, cols)
+    out[at] = at[parent]
+    return out.reshape(rows, cols)
 
 
 def relabel(labels: NDArray[np.intp]) -> NDArray[np.intp]:

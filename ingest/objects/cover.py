@@ -23,7 +23,7 @@ from ingest.ground.grids import Grid, quantised
 from ingest.ground.hills import point_spacing
 from ingest.objects.heights import TopRaster, above_ground
 from ingest.objects.mixture import fit_two
-from ingest.objects.texture import median_texture, second_derivative
+from ingest.objects.texture import median_texture
 from tdb.cloud import PointCloud
 from tdb.errors import TdbWarning
 from tdb.fill import fill_nearest
@@ -34,6 +34,7 @@ OTHER, GROUND, LOW, MEDIUM, HIGH, BUILDING = 1, 2, 3, 4, 5, 6
 VEGETATION_CELL, BUILDING_CELL = 1, 2
 MIN_CELL = 0.25  # m: the finest texture cell, whatever the density
 MIN_CELLS_TO_FIT = 20  # fewer tall cells than this are all vegetation: no mixture to fit
+SINGLE_RETURNS = "single returns only, so buildings are told from vegetation without the double-echo test"
 _EPS = 1e-3  # m: keeps the logarithm of a perfectly plane roof finite
 
 
@@ -43,8 +44,12 @@ class CoverParams:
 
     ``min_height`` (m): cells whose highest point is this far over the ground are classified
     (the paper's 2 m). ``cell_spacings``: texture cell size in pulse spacings (1.5: nine in
-    ten cells hold a pulse). ``roof_departure`` (m): the largest mean second derivative inside
-    a roof's border: a plane roof departs from it only by the returns' noise.
+    ten cells hold a pulse). ``roof_departure`` (m): the largest median departure of a roof's
+    returns inside its border from their local plane (:meth:`TopRaster.plane_departure`): a
+    roof plane departs only by the returns' noise, a crown by decimetres to metres.
+    ``eave_tolerance`` (m): an edge cell whose highest return lies this close to the line
+    through the two roof cells behind it is roof (the raster's error on a steep roof, slope
+    × half a cell, is up to half a metre).
     ``echo_share``: the largest share of a roof's returns inside its border that come from
     pulses with more than one return. ``min_building_area`` (m²): a smaller region is not a
     building. ``low_height``, ``high_height`` (m): vegetation under ``low_height`` is class 1
@@ -53,7 +58,8 @@ class CoverParams:
 
     min_height: float = 2.0
     cell_spacings: float = 1.5
-    roof_departure: float = 0.5
+    roof_departure: float = 0.2
+    eave_tolerance: float = 0.5
     echo_share: float = 0.2
     min_building_area: float = 10.0
     low_height: float = 0.5
@@ -111,14 +117,10 @@ def classify_cover(
     multi = cloud.number_of_returns > 1
     echo_test = bool(multi.any())
     if not echo_test:
-        warnings.warn(
-            f"{cloud.source}: single returns only, so buildings are told from vegetation without the "
-            "double-echo test",
-            TdbWarning,
-            stacklevel=2,
-        )
+        warnings.warn(f"{cloud.source}: {SINGLE_RETURNS}", TdbWarning, stacklevel=2)
     tall = np.nan_to_num(h, nan=-np.inf) > p.min_height
-    cells = _cell_classes(top, p, _Echoes(cell, tall, multi & tall) if echo_test else None)
+    departure = top.plane_departure(cloud.xyz[:, :2], np.nan_to_num(top.height, nan=-np.inf) > p.min_height)
+    cells = _cell_classes(top, departure, p, _Echoes(cell, tall, multi & tall) if echo_test else None)
     classes = _point_classes(h, ground, cells.ravel()[cell], p)
     if skip is not None:
         classes[skip] = cloud.classification[skip]
@@ -143,18 +145,28 @@ class _Echoes:
         return doubles / np.maximum(returns, 1)
 
 
-def _cell_classes(top: TopRaster, p: CoverParams, echoes: _Echoes | None) -> NDArray[np.uint8]:
+def _cell_classes(
+    top: TopRaster, departure: NDArray[np.float64], p: CoverParams, echoes: _Echoes | None
+) -> NDArray[np.uint8]:
     tall = np.nan_to_num(top.height, nan=-np.inf) > p.min_height
     out = np.where(tall, VEGETATION_CELL, 0).astype(np.uint8)
     if tall.sum() < MIN_CELLS_TO_FIT:
         return out
     z = np.asarray(fill_nearest(np.where(np.isfinite(top.height), np.maximum(top.height, 0.0), np.nan)), float)
-    features = np.log(median_texture(z, top.grid.cell)[tall] + _EPS)
+    plane = np.asarray(fill_nearest(np.where(tall, departure, np.nan)), float)
+    texture = median_texture(z, top.grid.cell)[tall]
+    features = np.log(texture + _EPS)
     smooth = fit_two(features).classify(features) == 0
+    if echoes is not None:
+        # A steep roof is as steep as a crown and, at a coarse cell, as rough in the raster: the
+        # mixture may class it rough. Where its points lie on a plane it is a roof candidate
+        # too, since the double echoes still tell a smooth crown from a roof; without them the
+        # candidates are the mixture's alone.
+        smooth |= ndimage.median_filter(plane, size=3, mode="nearest")[tall] <= p.roof_departure
     roof = np.zeros(tall.shape, bool)
     roof[tall] = smooth
-    roof &= _roofs(roof, second_derivative(z), top.grid.cell, p, echoes)
-    out[_roof_edges(roof, z, tall, p.roof_departure)] = BUILDING_CELL
+    roof &= _roofs(roof, plane, top.grid.cell, p, echoes)
+    out[_roof_edges(roof, z, tall, p.eave_tolerance)] = BUILDING_CELL
     return out
 
 
@@ -197,7 +209,11 @@ def _shift(a: NDArray, dr: int, dc: int, fill: object) -> NDArray:
 
 
 def _roofs(
-    candidate: NDArray[np.bool_], d2: NDArray[np.float64], cell_size: float, p: CoverParams, echoes: _Echoes | None
+    candidate: NDArray[np.bool_],
+    plane: NDArray[np.float64],
+    cell_size: float,
+    p: CoverParams,
+    echoes: _Echoes | None,
 ) -> NDArray[np.bool_]:
     """Cells of the candidate regions that pass the roof check."""
     labels, n = ndimage.label(candidate, structure=np.ones((3, 3)))
@@ -209,7 +225,9 @@ def _roofs(
     judged = np.where(has_inside[labels], inside, candidate) & (labels > 0)
     lab = labels[judged]
     count = np.bincount(lab, minlength=n + 1)
-    departure = np.bincount(lab, weights=d2[judged], minlength=n + 1) / np.maximum(count, 1)
+    departure = np.full(n + 1, np.inf)
+    have = np.flatnonzero(count > 0)
+    departure[have] = ndimage.median(plane, labels=np.where(judged, labels, 0), index=have)
     area = np.bincount(labels.ravel(), minlength=n + 1) * cell_size**2
     ok = (departure <= p.roof_departure) & (area >= p.min_building_area)
     if echoes is not None:

@@ -18,9 +18,24 @@ def outlines(labels: NDArray[np.intp], grid: Grid) -> dict[int, Any]:
     rows = labels.shape[0]
     transform = Affine(grid.cell, 0.0, grid.x0, 0.0, -grid.cell, grid.y0 + rows * grid.cell)
     north_up = labels[::-1].astype(np.int32)
-    parts: dict[int, list[Any]] = {}
+    values: list[int] = []
+    shells: list[NDArray[np.float64]] = []
+    holed: dict[int, list[Any]] = {}
     # 4-connected outlines are valid rings; cells meeting at a corner become parts of one
     # multipolygon (a ring through its own corner is not valid in GIS)
     for geom, value in rasterio.features.shapes(north_up, mask=north_up >= 0, connectivity=4, transform=transform):
-        parts.setdefault(int(value), []).append(shapely.geometry.shape(geom))
+        rings = geom["coordinates"]
+        if len(rings) == 1:  # most: built below all at once, not one by one
+            values.append(int(value))
+            shells.append(np.asarray(rings[0], float))
+        else:
+            holed.setdefault(int(value), []).append(shapely.geometry.shape(geom))
+    parts: dict[int, list[Any]] = {}
+    if shells:
+        ring_of = np.repeat(np.arange(len(shells)), [len(s) for s in shells])
+        polygons = shapely.polygons(shapely.linearrings(np.concatenate(shells), indices=ring_of))
+        for value, polygon in zip(values, polygons, strict=True):
+            parts.setdefault(value, []).append(polygon)
+    for value, polys in holed.items():
+        parts.setdefault(value, []).extend(polys)
     return {k: v[0] if len(v) == 1 else shapely.union_all(v) for k, v in parts.items()}

@@ -45,7 +45,7 @@ class TreeParams:
     scales: tuple[float, ...] = (0.35, 0.7, 1.4)
     cell_spacings: float = 1.0
     penetration: float = 1.5
-    iterations: int = 60
+    iterations: int = 30
     noise: float = 0.2
     min_crown_area: float = 2.0
 
@@ -81,12 +81,17 @@ def _inside(grid: Grid, xy: NDArray[np.float64]) -> NDArray[np.bool_]:
     return (xy[:, 0] >= grid.x0) & (xy[:, 0] < x1) & (xy[:, 1] >= grid.y0) & (xy[:, 1] < y1)
 
 
-def _crown_cells(top: TopRaster, tall: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """Cells whose highest return is a tree's; an empty cell takes its nearest filled cell's
-    answer, so a crown's edge falls between its last return and the first beside it instead
-    of shrinking by the empty cells along it."""
-    answer = np.where(top.index >= 0, tall[np.maximum(top.index, 0)].astype(float), np.nan)
-    return fill_nearest(answer) > 0.5
+def _crown_cells(top: TopRaster, tall: NDArray[np.bool_], *, reach: float = 1.5) -> NDArray[np.bool_]:
+    """Cells whose highest return is a tree's; an empty cell within ``reach`` cells of a filled
+    one takes the nearest filled cell's answer, so a crown's edge falls between its last
+    return and the first beside it instead of shrinking by the empty cells along it. Farther
+    from any return (outside the survey, in its gaps) a cell is no crown."""
+    filled = top.index >= 0
+    answer = np.where(filled, tall[np.maximum(top.index, 0)], False)
+    if filled.all() or not filled.any():
+        return answer
+    distance, (ri, ci) = ndimage.distance_transform_edt(~filled, return_indices=True)
+    return answer[ri, ci] & (distance <= reach)
 
 
 def crown_surface(

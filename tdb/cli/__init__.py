@@ -30,8 +30,11 @@ class TdbGroup(click.Group):
     (``--debug``: traceback)."""
 
     def invoke(self, ctx: click.Context) -> Any:
+        from tdb.cli.progress import echo_warnings
+
         try:
-            return super().invoke(ctx)
+            with echo_warnings():
+                return super().invoke(ctx)
         except click.UsageError as exc:
             command = f" {exc.ctx.command_path}" if exc.ctx is not None else ""
             hint = f" (tdb{command.removeprefix(' tdb')} --help)" if exc.ctx is not None else ""

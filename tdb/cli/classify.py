@@ -53,7 +53,7 @@ def command(
     from ingest.objects import survey_objects
     from ingest.readers import read, write_las
     from tdb.atomic import GEOPACKAGE, POINTS, check_destination
-    from tdb.cli.progress import Bars, echo_warnings
+    from tdb.cli.progress import Bars
     from tdb.objects import FEATURES, building_features, write_features
     from tdb.units import to_metres
 
@@ -62,7 +62,7 @@ def command(
         check_destination(buildings, GEOPACKAGE + FEATURES, what="a GeoPackage or GeoJSON file")
     raw = read(cloud, crs=crs, labels=labels)
     metric = to_metres(raw, assume_metres=assume_metres)
-    with echo_warnings(), Bars(unit="tile") as bars:
+    with Bars(unit="tile") as bars:
         found = survey_objects(metric, method=method, exclude=exclude, progress=bars)
     counts = np.bincount(found.classes, minlength=7)
     names = {

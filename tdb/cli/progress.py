@@ -58,16 +58,20 @@ class Bars:
 
 @contextlib.contextmanager
 def echo_warnings() -> Iterator[None]:
-    """Library warnings (:class:`tdb.errors.TdbWarning`) as one ``tdb: warning:`` line each on stderr."""
+    """Library warnings (:class:`tdb.errors.TdbWarning`) as one ``tdb: warning:`` line each on
+    stderr, each message once however many blocks said it; other warnings pass on as they were."""
     import click
 
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", TdbWarning)
-        try:
+    caught: list[warnings.WarningMessage] = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", TdbWarning)
             yield
-        finally:
-            for w in caught:
-                if issubclass(w.category, TdbWarning):
-                    click.echo(f"tdb: warning: {w.message}", err=True)
-                else:
-                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    finally:
+        said: set[str] = set()
+        for w in caught:  # outside the recording, so passing one on does not record it again
+            if not issubclass(w.category, TdbWarning):
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            elif str(w.message) not in said:
+                said.add(str(w.message))
+                click.echo(f"tdb: warning: {w.message}", err=True)

@@ -49,14 +49,14 @@ def command(
     from ingest.objects import survey_objects
     from ingest.readers import read
     from tdb.atomic import GEOPACKAGE, check_destination
-    from tdb.cli.progress import Bars, echo_warnings
+    from tdb.cli.progress import Bars
     from tdb.objects import FEATURES, tree_features, tree_top_features, write_features
     from tdb.units import to_metres
 
     check_destination(out, GEOPACKAGE + FEATURES, what="a GeoPackage or GeoJSON file")
     raw = read(cloud, crs=crs, labels=labels)
     metric = to_metres(raw, assume_metres=assume_metres)
-    with echo_warnings(), Bars(unit="tile") as bars:
+    with Bars(unit="tile") as bars:
         found = survey_objects(metric, method=method, exclude=exclude, progress=bars)
     trees = [t for t in found.trees if t.height >= min_height]
     write_features(out, {"trees": tree_features(trees), "tree_tops": tree_top_features(trees)}, crs=metric.crs)
