@@ -382,9 +382,11 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
             (s.evidence.xg >= x0) & (s.evidence.xg < x1) & (s.evidence.yg >= y0) & (s.evidence.yg < y1)
         ),
         # an object belongs to the block its top (a tree) or its centroid (a building) falls in
-        trees=[t for t in s.objects.trees if x0 <= t.x < x1 and y0 <= t.y < y1],
-        buildings=[bd for bd in s.objects.buildings if _owns(blk.core, bd.footprint.centroid)],
-        echo_test=s.objects.cover.echo_test,
+        trees=[t for t in s.objects.trees if x0 <= t.x < x1 and y0 <= t.y < y1] if s.objects else [],
+        buildings=[bd for bd in s.objects.buildings if _owns(blk.core, bd.footprint.centroid)]
+        if s.objects
+        else [],
+        echo_test=s.objects.cover.echo_test if s.objects else True,
     )
 
 
@@ -490,7 +492,9 @@ def _store(  # noqa: PLR0913 (the version and what is recorded of it)
         levels=levels,  # type: ignore[arg-type]
         points=points,
         evidence=evidence,
-        objects=([t for r in results for t in r.trees], [bd for r in results for bd in r.buildings]),
+        objects=([t for r in results for t in r.trees], [bd for r in results for bd in r.buildings])
+        if options.objects
+        else None,
         info=VersionInfo(
             acquired=acquired,
             source=f"{len(source.files)} file(s): {source.files[0].path}"

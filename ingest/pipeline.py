@@ -46,7 +46,7 @@ class Survey:
     flat_threshold: float
     model: TerrainModel
     evidence: TileEvidence
-    objects: Objects
+    objects: Objects | None
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,7 @@ class IngestOptions:
     the measured ground noise). Points of the ``exclude`` classes (codes, or text like
     ``"7,18,65"``) are never ground; the default is ASPRS noise (:data:`tdb.classes.NOISE`).
     ``density`` is the survey's points per m² (None: measured), given where a survey is
-    modelled in parts.
+    modelled in parts. ``objects``: find and store the trees and buildings (seed §2.2–2.3).
     """
 
     crs: Any = None
@@ -71,6 +71,7 @@ class IngestOptions:
     flat_threshold: float | None = None
     exclude: tuple[int, ...] = NOISE
     density: float | None = None
+    objects: bool = True
 
     def __post_init__(self) -> None:
         # user text is accepted and checked once, here
@@ -114,7 +115,11 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
     finest = model.levels[min(model.levels)]
     spacing = quantised(point_spacing(metric.xyz[:, :2]))
     evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing)
-    objects = find_objects(metric, ground, dtm, progress=report, skip=excluded(metric.classification, o.exclude))
+    objects = (
+        find_objects(metric, ground, dtm, progress=report, skip=excluded(metric.classification, o.exclude))
+        if o.objects
+        else None
+    )
     return Survey(metric, ground, dtm, noise, threshold, model, evidence, objects)
 
 
@@ -179,7 +184,7 @@ def ingest(
             stats=stats,
         ),
         evidence=result.evidence,
-        objects=(result.objects.trees, result.objects.buildings),
+        objects=None if result.objects is None else (result.objects.trees, result.objects.buildings),
         replace=replace,
         progress=report,
     )

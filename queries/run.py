@@ -12,6 +12,7 @@ from queries.filters import Match
 from queries.history import change_history
 from queries.language import Query, parse
 from queries.match import find, resolve
+from queries.object_changes import object_changes
 from queries.profile import SIDE, Nodes, Stretch, stretches, weighted_median
 from tdb.categories import all_categories
 from tdb.database import Database
@@ -56,6 +57,8 @@ def _select(db: Database, q: Query, text: str, progress: Progress | None = None)
         return _tiles(db, q)
     if q.what == "changes":
         return _changes(db, q, text)
+    if q.what == "object_changes":
+        return _object_changes(db, q, text)
     if q.to_version is not None:
         raise QueryError(
             "TO <version> belongs to SELECT changes", text=text, position=text.lower().find(" to ") + 1
@@ -82,6 +85,14 @@ def _objects(db: Database, q: Query) -> list[dict[str, Any]]:
     else:
         found = building_features(db.buildings(q.version, bbox=q.bbox))
     return [f for f in found if _keep(f["properties"], q)]
+
+
+def _object_changes(db: Database, q: Query, text: str) -> list[dict[str, Any]]:
+    """Trees felled and new, buildings removed and added, FROM a TO b (:mod:`queries.object_changes`)."""
+    if q.to_version is None or len(q.to_versions) != 1:
+        raise QueryError("SELECT object_changes needs FROM <version> TO <version>", text=text, position=0)
+    db.version(q.to_version)
+    return [f for f in object_changes(db, q.version, q.to_version, bbox=q.bbox) if _keep(f["properties"], q)]
 
 
 def _changes(db: Database, q: Query, text: str) -> list[dict[str, Any]]:

@@ -152,6 +152,16 @@ CASES: list[list[str]] = [
     ["ground", S, "--out", DB],
     ["ground", S, "--dtm", "{root}/x.xyz"],
     ["ground", S, "--resolution", "nan"],
+    # what stands on the ground: unreadable inputs, outputs that cannot be written
+    *[["classify", f"{{root}}/{f}", "--out", "{root}/c.laz"] for f in NOT_LAS],
+    *[["trees", f"{{root}}/{f}", "--out", "{root}/t.gpkg"] for f in NOT_LAS],
+    ["classify", S, "--out", DB],
+    ["classify", S, "--out", "{root}/folder"],
+    ["classify", S, "--out", "{root}/c.laz", "--buildings", "{root}/b.xyz"],
+    ["trees", S, "--out", DB],
+    ["trees", S, "--out", "{root}/t.png"],
+    ["query", "SELECT object_changes FROM a", "--db", DB],
+    ["query", "SELECT trees FROM a WHERE colour > 3", "--db", DB],
     # a database with random bytes in its middle
     *[
         [*args, "--db", "{root}/damaged.tdb"]

@@ -3,6 +3,7 @@ synthetic scenes whose every point's class, building and tree is known, and on r
 
 from __future__ import annotations
 
+import json
 import warnings
 from dataclasses import replace
 
@@ -275,3 +276,67 @@ def test_a_replaced_or_removed_version_takes_its_objects_along(tmp_path) -> None
     with db.engine.connect() as conn:
         assert conn.execute(text("SELECT count(*) FROM trees")).scalar() == 0
         assert conn.execute(text("SELECT count(*) FROM buildings")).scalar() == 0
+
+
+def test_felled_trees_and_a_new_building_are_found_between_surveys(tmp_path) -> None:
+    import tdb
+    from ingest.pipeline import ingest
+    from ingest.synth import apply_changes, make_scene, sample
+    from queries.run import run
+
+    scene = make_scene(seed=4, size=160)
+    later, changes = apply_changes(scene, seed=4)
+    db = tdb.open(tmp_path / "c.tdb", create=True)
+    ingest(sample(scene, density=8.0, seed=4), db, version="a")
+    ingest(sample(later, density=8.0, seed=5), db, version="b")
+    found = run(db, "SELECT object_changes FROM a TO b")
+    felled = [c for c in changes if c.kind == "tree_felled"]
+    tall = [c for c in felled if -c.dz >= 5]
+    assert tall
+    got = [shapely.geometry.shape(f["geometry"]) for f in found if f["properties"]["kind"] == "tree felled"]
+    hit = sum(any(g.intersects(c.area.centroid.buffer(1.5)) for g in got) for c in tall)
+    assert hit >= 0.9 * len(tall)
+    assert len(got) <= len(felled) + 2  # few trees called felled that were not
+    added = [c for c in changes if c.kind == "building_added"]
+    built = [shapely.geometry.shape(f["geometry"]) for f in found if f["properties"]["kind"] == "building added"]
+    assert len(built) == len(added) == 1 and built[0].intersection(added[0].area).area > 0.8 * added[0].area.area
+    assert not any(f["properties"]["kind"] in ("building removed",) for f in found)
+    assert run(db, "SELECT object_changes FROM a TO b WHERE kind = 'tree new'") == [
+        f for f in found if f["properties"]["kind"] == "tree new"
+    ]
+
+
+def test_classify_and_trees_commands_write_what_qgis_opens(tmp_path) -> None:
+    import laspy
+    import pyogrio
+    from click.testing import CliRunner
+
+    from ingest.readers import write_las
+    from ingest.synth import make_scene, sample
+    from tdb.cli import main
+
+    scene = make_scene(seed=5, size=120)
+    src = tmp_path / "scene.laz"
+    write_las(src, sample(scene, density=6.0, seed=5))
+    runner = CliRunner()
+    r = runner.invoke(
+        main, ["classify", str(src), "--out", str(tmp_path / "c.laz"), "--buildings", str(tmp_path / "b.gpkg")]
+    )
+    assert r.exit_code == 0, r.output
+    classes = np.asarray(laspy.read(tmp_path / "c.laz").classification)
+    assert {2, 5, 6} <= set(np.unique(classes).tolist())
+    assert pyogrio.read_info(tmp_path / "b.gpkg", layer="buildings")["features"] == len(scene.buildings)
+    r = runner.invoke(main, ["trees", str(src), "--out", str(tmp_path / "t.gpkg"), "--min-height", "5"])
+    assert r.exit_code == 0, r.output
+    info = pyogrio.read_info(tmp_path / "t.gpkg", layer="trees")
+    assert info["features"] > 0 and "EPSG" in info["crs"] and info["geometry_type"] in ("Polygon", "MultiPolygon")
+    tops = pyogrio.read_info(tmp_path / "t.gpkg", layer="tree_tops")
+    assert tops["features"] == info["features"] and tops["geometry_type"] == "Point"
+    r = runner.invoke(main, ["trees", str(src), "--out", str(tmp_path / "t.geojson")])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((tmp_path / "t.geojson").read_text())
+    assert doc["crs"]["properties"]["name"].endswith("25832") and all(
+        f["properties"]["height"] >= 2 for f in doc["features"]
+    )
+    r = runner.invoke(main, ["trees", str(src), "--out", str(tmp_path / "t.txt")])
+    assert r.exit_code != 0 and r.stderr.startswith("tdb: error:") and len(r.stderr.strip().splitlines()) == 1

@@ -1,8 +1,8 @@
 """A second survey of a scene with known changes between the two.
 
-Five changes: a ditch dug, a ditch filled, a wall built, a mound removed and a
-building added. The building is an off-terrain change: it alters the returns
-but not the bare earth, so ``terrain`` is false for it.
+Five terrain changes: a ditch dug, a ditch filled, a wall built, a mound removed;
+and off the terrain, a building added and a tenth of the trees felled. These alter
+the returns but not the bare earth, so ``terrain`` is false for them.
 """
 
 from __future__ import annotations
@@ -17,10 +17,12 @@ from shapely.geometry.base import BaseGeometry
 from ingest.synth.geometry import wander
 from ingest.synth.scene import Building, Feature, Placer, Scene
 
+FELLED = 10  # one tree in this many is felled
+
 
 @dataclass(frozen=True)
 class Change:
-    kind: str  # ditch_dug, ditch_filled, wall_built, mound_removed, building_added
+    kind: str  # ditch_dug, ditch_filled, wall_built, mound_removed, building_added, tree_felled
     area: BaseGeometry
     dz: float  # signed height change of the surface (m)
     terrain: bool = True
@@ -68,7 +70,18 @@ def apply_changes(scene: Scene, *, seed: int = 0) -> tuple[Scene, list[Change]]:
     if building is not None:
         buildings.append(building)
         changes.append(Change("building_added", building.footprint, building.height, terrain=False))
-    return replace(scene, features=tuple(features), buildings=tuple(buildings)), changes
+    felled = (
+        set(rng.choice(len(scene.trees), size=len(scene.trees) // FELLED, replace=False).tolist())
+        if scene.trees
+        else set()
+    )
+    for i in sorted(felled):
+        t = scene.trees[i]
+        changes.append(
+            Change("tree_felled", shapely.Point(t.x, t.y).buffer(t.crown_radius), -t.height, terrain=False)
+        )
+    trees = tuple(t for i, t in enumerate(scene.trees) if i not in felled)
+    return replace(scene, features=tuple(features), buildings=tuple(buildings), trees=trees), changes
 
 
 def _place_line(

@@ -45,6 +45,7 @@ def _date(_ctx: click.Context, _param: click.Parameter, value: str | None) -> dt
     help="Height range (m) below which a tile is flat [default: 5 × the measured ground noise, at least 0.1 m].",
 )
 @click.option("--replace", is_flag=True, help="Replace an existing version of the same name.")
+@click.option("--no-objects", is_flag=True, help="Do not find and store trees and buildings.")
 @bbox_option()
 @click.option("--assume-metres", is_flag=True, help="Accept a file with no CRS as metres.")
 @input_options
@@ -58,6 +59,7 @@ def command(
     resolution: float,
     flat_threshold: float | None,
     replace: bool,
+    no_objects: bool,
     assume_metres: bool,
     block: float | None,
     workers: int | None,
@@ -68,7 +70,7 @@ def command(
     exclude: tuple[int, ...],
 ) -> None:
     """Build the terrain model of a survey and store it: ground filter, dense model,
-    tile categories at 2/4/8/16 m, reduction, in one transaction.
+    tile categories at 2/4/8/16 m, reduction, trees and buildings, in one transaction.
 
     A failure or interruption leaves the database as it was.
 
@@ -100,6 +102,7 @@ def command(
         resolution=resolution,
         flat_threshold=flat_threshold,
         exclude=exclude,
+        objects=not no_objects,
     )
     blocked = block is not None or scheduler is not None or bbox is not None or is_catalog(cloud)
     with tdb.open(db_path, create=True) as db, Bars(unit="step") as bars:
