@@ -71,7 +71,7 @@ class Cover:
     """Classes per point (ASPRS codes) and per cell, and each point's height over the ground.
 
     ``top`` is the texture raster's highest point per cell; ``cells`` (its rows, south to north):
-    0 low or empty, 1 vegetation, 2 building.
+    0 low or empty, 1 vegetation, 2 building. ``spacing``: the pulses' mean spacing (m).
     ``echo_test`` is false where the survey has single returns only, so no double-echo test ran.
     """
 
@@ -80,13 +80,18 @@ class Cover:
     top: TopRaster
     cells: NDArray[np.uint8]
     echo_test: bool
+    spacing: float
 
 
-def texture_cell(cloud: PointCloud, *, spacings: float) -> float:
-    """Texture cell (m): ``spacings`` × the spacing of the pulses (first returns)."""
+def pulse_spacing(cloud: PointCloud) -> float:
+    """The mean spacing (m) of the pulses (first returns)."""
     first = cloud.return_number <= 1
-    xy = cloud.xyz[first, :2] if first.sum() >= 3 else cloud.xyz[:, :2]
-    return max(MIN_CELL, quantised(spacings * point_spacing(xy)))
+    return point_spacing(cloud.xyz[first, :2] if first.sum() >= 3 else cloud.xyz[:, :2])
+
+
+def cell_size(spacing: float, *, spacings: float) -> float:
+    """A raster cell (m) of ``spacings`` pulse spacings, on the quarter-octave ladder."""
+    return max(MIN_CELL, quantised(spacings * spacing))
 
 
 def classify_cover(
@@ -111,7 +116,8 @@ def classify_cover(
     h = above_ground(cloud.xyz, dtm)
     if skip is not None:
         h[skip] = np.nan
-    grid = Grid.covering(cloud.xyz[:, :2], texture_cell(cloud, spacings=p.cell_spacings))
+    spacing = pulse_spacing(cloud)
+    grid = Grid.covering(cloud.xyz[:, :2], cell_size(spacing, spacings=p.cell_spacings))
     top = TopRaster.of(grid, cloud.xyz[:, :2], h)
     cell = top.cells_of(cloud.xyz[:, :2])
     multi = cloud.number_of_returns > 1
@@ -124,7 +130,7 @@ def classify_cover(
     classes = _point_classes(h, ground, cells.ravel()[cell], p)
     if skip is not None:
         classes[skip] = cloud.classification[skip]
-    return Cover(classes, h, top, cells, echo_test)
+    return Cover(classes, h, top, cells, echo_test, spacing)
 
 
 @dataclass(frozen=True)

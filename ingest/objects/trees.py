@@ -20,7 +20,7 @@ from scipy import ndimage
 from ingest.ground.contour import ContourParams, relax_on
 from ingest.ground.grids import Grid
 from ingest.objects.climb import climb
-from ingest.objects.cover import HIGH, MEDIUM, Cover, texture_cell
+from ingest.objects.cover import HIGH, MEDIUM, Cover, cell_size
 from ingest.objects.crowns import choose_scales
 from ingest.objects.heights import TopRaster
 from ingest.objects.outline import outlines
@@ -63,7 +63,7 @@ def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = N
     tall = np.isin(cover.classes, (MEDIUM, HIGH))
     if tall.sum() < 3:
         return []
-    grid = Grid.covering(cloud.xyz[tall, :2], texture_cell(cloud, spacings=p.cell_spacings))
+    grid = Grid.covering(cloud.xyz[tall, :2], cell_size(cover.spacing, spacings=p.cell_spacings))
     near = _inside(grid, cloud.xyz[:, :2]) & np.isfinite(cover.height)
     xyz = cloud.xyz[near]
     top = TopRaster.of(grid, xyz[:, :2], cover.height[near])
