@@ -209,7 +209,7 @@ def test_mixed_conifer_trees_against_its_segmentation() -> None:
     assert s.recall >= MIXED_CONIFER_RECALL
 
 
-MIXED_CONIFER_RECALL = 0.5
+MIXED_CONIFER_RECALL = 0.75  # three in four of its trees over 5 m
 
 
 # --- stored per version, read by area and by query ------------------------------------------

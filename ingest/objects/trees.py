@@ -46,7 +46,7 @@ class TreeParams:
     cell_spacings: float = 1.0
     penetration: float = 1.5
     iterations: int = 30
-    noise: float = 0.2
+    noise: float = 0.4
     min_crown_area: float = 2.0
 
 
