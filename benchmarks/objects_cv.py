@@ -48,8 +48,7 @@ GRID: dict[str, tuple[Any, ...]] = {
     "scales": ((0.5, 1.0, 2.0), (0.35, 0.7, 1.4), (0.25, 0.5, 1.0)),
     "noise": (0.1, 0.2, 0.4),
 }
-BASELINE_GRID = {"min_distance": (1.0, 1.5, 2.0, 3.0), "sigma": (0.5, 1.0)}  # m
-BASELINE_CELL = 0.5  # m
+BASELINE_GRID = {"min_distance": (1.0, 1.5, 2.0, 3.0), "sigma": (0.5, 1.0), "cell": (0.5, 1.0)}  # m
 
 
 @dataclass
@@ -116,7 +115,7 @@ def run_tdb(case: Case, setting: dict[str, Any]) -> tuple[Any, float]:
     return found, time.perf_counter() - start
 
 
-def baseline_trees(case: Case, *, min_distance: float, sigma: float) -> np.ndarray:
+def baseline_trees(case: Case, *, min_distance: float, sigma: float, cell: float) -> np.ndarray:
     """Local maxima of a smoothed canopy height model, crowns by watershed (scikit-image)."""
     from scipy import ndimage
     from skimage.feature import peak_local_max
@@ -124,16 +123,16 @@ def baseline_trees(case: Case, *, min_distance: float, sigma: float) -> np.ndarr
 
     h = above_ground(case.cloud.xyz, case.dtm)
     keep = np.isfinite(h) & ~excluded(case.cloud.classification, NOISE)
-    grid = Grid.covering(case.cloud.xyz[keep, :2], BASELINE_CELL)
+    grid = Grid.covering(case.cloud.xyz[keep, :2], cell)
     top = TopRaster.of(grid, case.cloud.xyz[keep, :2], h[keep])
     chm = np.nan_to_num(top.height, nan=0.0).clip(0)
-    smooth = ndimage.gaussian_filter(chm, sigma / BASELINE_CELL)
-    peaks = peak_local_max(smooth, min_distance=max(1, round(min_distance / BASELINE_CELL)), threshold_abs=2.0)
+    smooth = ndimage.gaussian_filter(chm, sigma / cell)
+    peaks = peak_local_max(smooth, min_distance=max(1, round(min_distance / cell)), threshold_abs=2.0)
     markers = np.zeros(chm.shape, np.int32)
     markers[tuple(peaks.T)] = np.arange(1, len(peaks) + 1)
     labels = watershed(-smooth, markers, mask=chm > 2.0)
     n = len(peaks)
-    area = np.bincount(labels.ravel(), minlength=n + 1)[1:] * BASELINE_CELL**2
+    area = np.bincount(labels.ravel(), minlength=n + 1)[1:] * cell**2
     xs, ys = grid.centres()
     return np.column_stack([xs[peaks[:, 1]], ys[peaks[:, 0]], chm[tuple(peaks.T)], 2 * np.sqrt(area / np.pi)])
 
