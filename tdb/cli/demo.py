@@ -106,6 +106,23 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
             "→ diff.geojson, diff.png (over the DEM of difference, dod.tif); both layers in results.gpkg "
             "(QGIS); true changes are in changes.geojson",
         )
+        t3 = step("trees and buildings, and what changed of them (SELECT trees, buildings, object_changes)")
+        trees = run(db, 'SELECT trees FROM "2020" WHERE height >= 5')
+        houses = run(db, 'SELECT buildings FROM "2020"')
+        moved = run(db, 'SELECT object_changes FROM "2020" TO "2024"')
+        write_geopackage(
+            out / "objects.gpkg",
+            {"trees_2020": trees, "buildings_2020": houses, "changes": moved},
+            crs=db.crs("2024"),
+        )
+        counts = ", ".join(
+            f"{sum(f['properties']['kind'] == k for f in moved)} {k}"
+            for k in sorted({f["properties"]["kind"] for f in moved})
+        )
+        done(
+            t3,
+            f"{len(trees)} trees of 5 m or more, {len(houses)} buildings; {counts or 'no changes'} → objects.gpkg",
+        )
     write_ply(out / "aoi.ply", area, mesh=mesh)
     write_geotiff(out / "aoi.tif", surface)
     area_picture(out / "aoi.png", area, surface)
