@@ -93,11 +93,13 @@ def test_features_scale_with_area():
 def test_changes_are_the_five_kinds_and_real():
     scene = make_scene(seed=4, size=300)
     later, changes = apply_changes(scene, seed=4)
-    kinds = sorted(c.kind for c in changes)
-    assert kinds == ["building_added", "ditch_dug", "ditch_filled", "mound_removed", "wall_built"]
+    kinds = sorted({c.kind for c in changes})
+    assert kinds == ["building_added", "ditch_dug", "ditch_filled", "mound_removed", "tree_felled", "wall_built"]
+    felled = [c for c in changes if c.kind == "tree_felled"]
+    assert len(felled) == len(scene.trees) // 10 == len(scene.trees) - len(later.trees)
     for c in changes:
         p = c.area.representative_point()
-        if c.kind == "building_added":
+        if c.kind in ("building_added", "tree_felled"):
             assert not c.terrain
             continue
         x, y = np.array([p.x]), np.array([p.y])
@@ -114,7 +116,7 @@ def test_changes_are_the_five_kinds_and_real():
         changed |= shapely.contains_xy(c.area.buffer(0.5), x, y)
     np.testing.assert_allclose(ground_height(later, x, y)[~changed], ground_height(scene, x, y)[~changed])
     doc = changes_truth(changes, scene.crs)
-    assert len(doc["features"]) == 5
+    assert len(doc["features"]) == len(changes) == 5 + len(felled)
 
 
 def test_write_scene_streams_to_laz(tmp_path):
