@@ -51,6 +51,13 @@ def test_blocks_give_the_one_piece_model(scene_file, tmp_path):
     back = eb.at(ea.xg, ea.yg)
     assert np.mean(back.support == ea.support) >= 0.995
     assert np.mean(np.abs(back.lift - ea.lift) < 0.01) >= 0.99
+    # the same trees and buildings, each once: objects belong to the block their top or centroid is in
+    ta, tb = db.trees("whole"), db.trees("blocks")
+    tops_b = {(round(t.x, 3), round(t.y, 3)) for t in tb}
+    assert len(tb) == len({(round(t.x, 3), round(t.y, 3)) for t in tb})
+    assert np.mean([(round(t.x, 3), round(t.y, 3)) in tops_b for t in ta]) >= 0.95
+    assert abs(len(tb) - len(ta)) <= 0.05 * len(ta)
+    assert len(db.buildings("blocks")) == len(db.buildings("whole"))
 
 
 def test_a_catalog_of_tiles_is_one_survey(scene_file, tmp_path):
