@@ -556,6 +556,13 @@ class Database:
         with self.engine.connect() as conn:
             return int(conn.execute(select(func.count()).select_from(t).where(t.c.version == vid)).scalar() or 0)
 
+    def object_counts(self, version: str) -> tuple[int, int]:
+        """How many trees and buildings ``version`` holds (none for a version stored before they were kept)."""
+        return tuple(  # type: ignore[return-value]
+            self.count(version, table=t.name) if t.name in self._tables else 0
+            for t in (schema.trees, schema.buildings)
+        )
+
     def aoi(self, bbox: tuple[float, float, float, float], *, level: int = 2, version: str | None = None) -> Area:
         """The tiles' categories and the points of an area of interest (the paper's AOI access).
 

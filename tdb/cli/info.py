@@ -44,6 +44,7 @@ def _database_info(path: Path, as_json: bool) -> None:
     with tdb.open(path, readonly=True) as db:
         versions = db.versions()
         crs = {v.name: db.crs(v.name) for v in versions}
+        objects = {v.name: db.object_counts(v.name) for v in versions}
         doc = {
             "database": str(path),
             "schema_version": db.schema_version(),
@@ -57,6 +58,8 @@ def _database_info(path: Path, as_json: bool) -> None:
                     "vertical_crs": describe(vertical_part(crs[v.name])),
                     "params": v.params,
                     "stats": v.stats.to_json(),
+                    "trees": objects[v.name][0],
+                    "buildings": objects[v.name][1],
                 }
                 for v in versions
             ],
@@ -87,6 +90,7 @@ def _database_info(path: Path, as_json: bool) -> None:
             click.echo(
                 f"    ground seen under {s.seen_pct} % of the 2 m tiles; median surface uncertainty {s.sigma_m} m"
             )
+        click.echo(f"    trees {objects[v.name][0]:,}, buildings {objects[v.name][1]:,}")
         if "exclude_classes" in v.params:  # versions from before the option have no record
             classes = ",".join(map(str, v.params["exclude_classes"])) or "none"
             click.echo(f"    excluded classes {classes}: {s.excluded_points:,} of {s.points:,} points")
