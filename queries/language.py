@@ -24,8 +24,9 @@ TOKEN = re.compile(
 )
 KEYWORDS = {
     *("select", "from", "to", "where", "and", "at", "level", "in", "bbox", "category"),
-    *("order", "by", "asc", "desc", "limit"),
+    *("order", "by", "asc", "desc", "limit", "within"),
 }
+NEAR_KINDS = ("trees", "buildings")  # what a result may be required to lie within a distance of
 ATTRIBUTES = {"length", "tiles", "depth", "height", "shoulder", "width", "area", "dz", "lod", "crown_diameter"}
 TEXT_ATTRIBUTES = {"kind", "description"}
 
@@ -37,6 +38,14 @@ class Condition:
     value: float | str | tuple[str, ...]
 
 
+@dataclass(frozen=True)
+class Near:
+    """``within(distance, kind)``: a result lies within ``distance`` m of a tree or building."""
+
+    kind: str
+    distance: float
+
+
 @dataclass
 class Query:
     what: str
@@ -45,6 +54,7 @@ class Query:
     bbox: tuple[float, float, float, float] | None = None
     categories: list[int] | None = None
     conditions: list[Condition] = field(default_factory=list)
+    near: list[Near] = field(default_factory=list)
     level: int | None = None
     order_by: str | None = None
     descending: bool = False
@@ -177,10 +187,12 @@ class _Parser:
 
     def condition(self, q: Query) -> None:
         """cond := bbox(x0, y0, x1, y1) | category IN (n, …) | attr op number | text-attr (= | !=) 'text'
-        | text-attr IN ('text', …)"""
+        | text-attr IN ('text', …) | within(distance, trees|buildings)"""
         t = self.peek()
         if self.accept("kw", "bbox"):
             self.bbox(q, t)
+        elif self.accept("kw", "within"):
+            self.within(q, t)
         elif self.accept("kw", "category"):
             self.categories(q, t)
         elif t.kind == "name" and t.text.lower() in ATTRIBUTES:
@@ -192,7 +204,7 @@ class _Parser:
             self.text_condition(q, t.text.lower())
         else:
             names = ", ".join(sorted(ATTRIBUTES | TEXT_ATTRIBUTES))
-            raise self.error(f"expected bbox(...), category IN (...) or one of {names}")
+            raise self.error(f"expected bbox(...), category IN (...), within(...) or one of {names}")
 
     def numbers(self) -> list[float]:
         """( n {, n} )"""
@@ -210,6 +222,19 @@ class _Parser:
         if not (vals[2] > vals[0] and vals[3] > vals[1]):
             raise self.error("bbox needs x0 < x1 and y0 < y1", at)
         q.bbox = (vals[0], vals[1], vals[2], vals[3])
+
+    def within(self, q: Query, at: Token) -> None:
+        self.expect("punct", "(")
+        distance = self.number()
+        if not (distance >= 0 and distance < float("inf")):
+            raise self.error("within takes a distance of 0 m or more", at)
+        self.expect("punct", ",")
+        kind = self.peek()
+        if kind.kind != "name" or kind.text.lower() not in NEAR_KINDS:
+            raise self.error(f"within(distance, kind): kind is one of {', '.join(NEAR_KINDS)}", kind)
+        self.i += 1
+        self.expect("punct", ")")
+        q.near.append(Near(kind.text.lower(), distance))
 
     def categories(self, q: Query, at: Token) -> None:
         self.expect("kw", "in")

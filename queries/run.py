@@ -37,7 +37,7 @@ def run(db: Database, text: str, *, progress: Progress | None = None) -> list[di
     """Run a query; return GeoJSON Feature dicts in the database's CRS. ``progress``
     (:mod:`tdb.progress`) follows the longest step: the cross-sections of a query on ``width``."""
     q = parse(text)
-    return _order(_select(db, q, text, progress), q)
+    return _order(_near(db, q, _select(db, q, text, progress)), q)
 
 
 def _order(features: list[dict[str, Any]], q: Query) -> list[dict[str, Any]]:
@@ -76,6 +76,29 @@ def _select(db: Database, q: Query, text: str, progress: Progress | None = None)
 
 
 OBJECTS = ("trees", "buildings")  # what stands on the ground, stored per version
+
+
+def _near(db: Database, q: Query, features: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The results within each ``within(distance, kind)`` of the FROM version's trees or buildings."""
+    for near in q.near:
+        if not features:
+            break
+        geoms = [shapely.geometry.shape(f["geometry"]) for f in features]
+        x0, y0, x1, y1 = shapely.total_bounds(geoms)
+        d = near.distance
+        box = (x0 - d, y0 - d, x1 + d, y1 + d)
+        shapes = (
+            [t.crown for t in db.trees(q.version, bbox=box)]
+            if near.kind == "trees"
+            else [b.footprint for b in db.buildings(q.version, bbox=box)]
+        )
+        if not shapes:
+            return []
+        index = shapely.STRtree(shapes)
+        hit, _ = index.query(geoms, predicate="dwithin", distance=d)
+        keep = set(hit.tolist())
+        features = [f for i, f in enumerate(features) if i in keep]
+    return features
 
 
 def _objects(db: Database, q: Query) -> list[dict[str, Any]]:

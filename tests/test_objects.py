@@ -257,6 +257,15 @@ def test_area_reads_and_queries_return_the_objects(stored) -> None:
     assert len(big) == sum(b.area > 100 for b in db.buildings("v1"))
     area = db.aoi(box, version="v1")
     assert any(abs(tr.x - t.x) < 1e-6 for tr in area.trees)
+    # a condition between kinds: results within a distance of the buildings
+    houses = [b.footprint for b in db.buildings("v1")]
+    for d in (5.0, 30.0):
+        near = run(db, f"SELECT trees FROM v1 WHERE within({d}, buildings)")
+        expected = [tr for tr in trees if min(tr.crown.distance(h) for h in houses) <= d]
+        assert len(near) == len(expected)
+    assert len(run(db, "SELECT trees FROM v1 WHERE within(5, buildings)")) < len(run(db, "SELECT trees FROM v1"))
+    ditches = run(db, "SELECT ditch FROM v1 WHERE within(10, trees)")
+    assert all(min(shapely.geometry.shape(f["geometry"]).distance(tr.crown) for tr in trees) <= 10 for f in ditches)
 
 
 def test_a_replaced_or_removed_version_takes_its_objects_along(tmp_path) -> None:
