@@ -37,7 +37,8 @@ def _beside(path):
         ["aoi", "--db", "{db}", "--bbox", "500010,5500010,500040,5500040"],
     ],
 )
-def test_reading_commands_leave_the_file_as_it_was(park, args):
+def test_reading_commands_leave_the_file_as_it_was(park, args, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # aoi writes its default outputs (aoi.ply …) into the working directory
     before, files = park.read_bytes(), _beside(park)
     r = CliRunner().invoke(main, [a.format(db=park) for a in args])
     assert r.exit_code == 0, r.output
