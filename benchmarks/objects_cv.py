@@ -63,15 +63,16 @@ class Case:
     crowns: list[shapely.Geometry] | None = None  # the reference crowns, by row of ``trees``
 
 
-def _model(cloud: PointCloud) -> tuple[np.ndarray, Any]:
-    ground = classify_ground(cloud, exclude=NOISE)
+def ground_model(cloud: PointCloud, *, exclude: tuple[int, ...] = NOISE) -> tuple[np.ndarray, Any]:
+    """The ground mask and the dense ground model, as ingest makes them."""
+    ground = classify_ground(cloud, exclude=exclude)
     return ground, dense_model(cloud.xyz[ground], resolution=DEFAULT_RESOLUTION, crs=cloud.crs)
 
 
 def synthetic_case(seed: int, density: float) -> Case:
     scene = make_scene(seed=seed, size=SIZE)
     cloud = survey_of(scene, density=density, seed=seed)
-    ground, dtm = _model(cloud)
+    ground, dtm = ground_model(cloud)
     trees = np.array([[t.x, t.y, t.height, 2 * t.crown_radius] for t in scene.trees])
     return Case(
         f"seed {seed} @ {density:g}/m²",
@@ -91,7 +92,7 @@ def forest_case() -> Case | None:
     if not path.exists():
         return None
     cloud = to_metres(read(path))
-    ground, dtm = _model(cloud)
+    ground, dtm = ground_model(cloud)
     tid = np.asarray(laspy.read(path).treeID)
     h = above_ground(cloud.xyz, dtm)
     rows, crowns = [], []
@@ -173,8 +174,7 @@ def vegetation_agreement(path: str) -> dict[str, float] | None:
         return None
     cloud = to_metres(read(full))
     skip = excluded(cloud.classification, (*NOISE, 9, 17, 65))  # noise, water, bridges, artefacts
-    ground = classify_ground(cloud, exclude=(*NOISE, 65))
-    dtm = dense_model(cloud.xyz[ground], resolution=DEFAULT_RESOLUTION, crs=cloud.crs)
+    ground, dtm = ground_model(cloud, exclude=(*NOISE, 65))
     start = time.perf_counter()
     found = find_objects(cloud, ground, dtm, skip=skip)
     elapsed = time.perf_counter() - start

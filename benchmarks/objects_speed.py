@@ -19,8 +19,7 @@ from typing import Any
 
 import tdb
 from benchmarks.common import DATA, save
-from ingest.dtm import DEFAULT_RESOLUTION, dense_model
-from ingest.ground import classify_ground
+from benchmarks.objects_cv import ground_model
 from ingest.objects import find_objects
 from ingest.pipeline import IngestOptions, ingest
 from ingest.readers import read
@@ -45,8 +44,7 @@ def _median_time(run: Any) -> float:
 
 
 def objects_rate(cloud: PointCloud) -> dict[str, float]:
-    ground = classify_ground(cloud, exclude=NOISE)
-    dtm = dense_model(cloud.xyz[ground], resolution=DEFAULT_RESOLUTION, crs=cloud.crs)
+    ground, dtm = ground_model(cloud)
     skip = excluded(cloud.classification, NOISE)
     seconds = _median_time(lambda: find_objects(cloud, ground, dtm, skip=skip))
     return {"points": len(cloud), "seconds": seconds, "points_per_s": len(cloud) / seconds}

@@ -47,6 +47,7 @@ from ingest.ground import classify_ground
 from ingest.ground.outliers import DENSITY_BLOCK
 from ingest.ground.tiling import available_cores, one_blas_thread_here
 from ingest.noise import ground_noise
+from ingest.objects import Objects
 from ingest.objects.cover import SINGLE_RETURNS
 from ingest.pipeline import IngestOptions, flat_threshold_for, median_sigma, seen_pct, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
@@ -369,6 +370,7 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
         tiles={lv: len(t.code) for lv, t in levels.items()},
         no_data={lv: int((t.code == NO_DATA).sum()) for lv, t in levels.items()},
     )
+    trees, buildings = _owned(s.objects, blk.core)
     return _Result(
         levels={lv: (t.xg, t.yg, t.code) for lv, t in levels.items()},
         points=(m.x[on], m.y[on], m.z[on], m.n[on]),
@@ -381,17 +383,23 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
         evidence=s.evidence.take(
             (s.evidence.xg >= x0) & (s.evidence.xg < x1) & (s.evidence.yg >= y0) & (s.evidence.yg < y1)
         ),
-        # an object belongs to the block its top (a tree) or its centroid (a building) falls in
-        trees=[t for t in s.objects.trees if x0 <= t.x < x1 and y0 <= t.y < y1] if s.objects else [],
-        buildings=[bd for bd in s.objects.buildings if _owns(blk.core, bd.footprint.centroid)]
-        if s.objects
-        else [],
+        trees=trees,
+        buildings=buildings,
         echo_test=s.objects.cover.echo_test if s.objects else True,
     )
 
 
-def _owns(core: Box, point: Any) -> bool:
-    return bool(core[0] <= point.x < core[2] and core[1] <= point.y < core[3])
+def _owned(objects: Objects | None, core: Box) -> tuple[list[Tree], list[Building]]:
+    """The trees whose top and the buildings whose centroid fall in the block's square, so that
+    each object is kept by one block."""
+    if objects is None:
+        return [], []
+
+    def owns(x: float, y: float) -> bool:
+        return core[0] <= x < core[2] and core[1] <= y < core[3]
+
+    trees = [t for t in objects.trees if owns(t.x, t.y)]
+    return trees, [b for b in objects.buildings if owns(b.footprint.centroid.x, b.footprint.centroid.y)]
 
 
 def _crop(dtm: Raster, box: Box) -> Raster:

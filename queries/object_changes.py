@@ -17,8 +17,7 @@ import shapely
 from scipy.spatial import cKDTree
 
 from tdb.database import Database
-from tdb.geojson import feature
-from tdb.objects import Building, Tree
+from tdb.objects import Building, Tree, building_features, tree_features
 
 MATCH = 1.5  # m: tops this close are one tree seen twice
 COVERED = 0.5  # share of a footprint another survey's footprints must cover for it to stand
@@ -30,12 +29,13 @@ def object_changes(
     """Trees felled and new, buildings removed and added, from ``before`` to ``after``, as GeoJSON
     features with ``kind``, ``height`` (m) and the outline."""
     trees_a, trees_b = db.trees(before, bbox=bbox), db.trees(after, bbox=bbox)
-    out = [_tree(t, "tree felled") for t in _gone(trees_a, trees_b)]
-    out += [_tree(t, "tree new") for t in _gone(trees_b, trees_a)]
     houses_a, houses_b = db.buildings(before, bbox=bbox), db.buildings(after, bbox=bbox)
-    out += [_building(b, "building removed") for b in _uncovered(houses_a, houses_b)]
-    out += [_building(b, "building added") for b in _uncovered(houses_b, houses_a)]
-    return out
+    return [
+        *tree_features(_gone(trees_a, trees_b), kind="tree felled"),
+        *tree_features(_gone(trees_b, trees_a), kind="tree new"),
+        *building_features(_uncovered(houses_a, houses_b), kind="building removed"),
+        *building_features(_uncovered(houses_b, houses_a), kind="building added"),
+    ]
 
 
 def _gone(these: list[Tree], others: list[Tree]) -> list[Tree]:
@@ -56,20 +56,3 @@ def _uncovered(these: list[Building], others: list[Building]) -> list[Building]:
         return list(these)
     union = shapely.union_all([b.footprint for b in others])
     return [b for b in these if b.footprint.intersection(union).area < COVERED * b.area]
-
-
-def _tree(t: Tree, kind: str) -> dict[str, Any]:
-    return feature(
-        t.crown,
-        {
-            "kind": kind,
-            "height": round(t.height, 2),
-            "crown_diameter": round(t.crown_diameter, 2),
-            "x": t.x,
-            "y": t.y,
-        },
-    )
-
-
-def _building(b: Building, kind: str) -> dict[str, Any]:
-    return feature(b.footprint, {"kind": kind, "height": round(b.height, 2), "area": round(b.area, 1)})

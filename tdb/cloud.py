@@ -11,10 +11,22 @@ from numpy.typing import NDArray
 from tdb.crs import as_crs
 from tdb.errors import DegenerateInputError, InputError
 
+# ASPRS classes tdb reads and writes
+OTHER = 1  # unclassified: over the ground but neither vegetation nor building
 GROUND = 2
-VEGETATION = 5
+LOW_VEGETATION = 3
+MEDIUM_VEGETATION = 4
+VEGETATION = HIGH_VEGETATION = 5
 BUILDING = 6
 NOISE = 7
+CLASS_NAMES = {
+    GROUND: "ground",
+    LOW_VEGETATION: "low vegetation",
+    MEDIUM_VEGETATION: "medium vegetation",
+    HIGH_VEGETATION: "high vegetation",
+    BUILDING: "building",
+    OTHER: "other",
+}
 
 
 @dataclass(frozen=True)

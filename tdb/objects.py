@@ -46,12 +46,14 @@ class Building:
 FEATURES = (".geojson", ".json")  # a GeoJSON FeatureCollection; ".gpkg" for a GeoPackage
 
 
-def tree_features(trees: list[Tree]) -> list[dict[str, Any]]:
-    """The trees as GeoJSON features: crowns as polygons, the top's position in the properties."""
+def tree_features(trees: list[Tree], *, kind: str | None = None) -> list[dict[str, Any]]:
+    """The trees as GeoJSON features: crowns as polygons, the top's position in the properties
+    (and ``kind`` where given, as for a change)."""
     return [
         feature(
             t.crown,
             {
+                **({"kind": kind} if kind else {}),
                 "x": round(t.x, 3),
                 "y": round(t.y, 3),
                 "height": round(t.height, 2),
@@ -72,9 +74,16 @@ def tree_top_features(trees: list[Tree]) -> list[dict[str, Any]]:
     ]
 
 
-def building_features(buildings: list[Building]) -> list[dict[str, Any]]:
-    """The buildings as GeoJSON features: footprints with roof height and area."""
-    return [feature(b.footprint, {"height": round(b.height, 2), "area": round(b.area, 1)}) for b in buildings]
+def building_features(buildings: list[Building], *, kind: str | None = None) -> list[dict[str, Any]]:
+    """The buildings as GeoJSON features: footprints with roof height and area (and ``kind``
+    where given)."""
+    return [
+        feature(
+            b.footprint,
+            {**({"kind": kind} if kind else {}), "height": round(b.height, 2), "area": round(b.area, 1)},
+        )
+        for b in buildings
+    ]
 
 
 def write_features(path: str | os.PathLike[str], layers: dict[str, list[dict[str, Any]]], *, crs: Any) -> None:

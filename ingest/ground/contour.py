@@ -12,6 +12,7 @@ starting from the one before. Points near the final net are ground.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,16 +60,7 @@ def relax(
     target: NDArray[np.float64], net: NDArray[np.float64], cell: float, reach: float, p: ContourParams
 ) -> NDArray[np.float64]:
     """Run both phases on one level; returns the converged net."""
-    net = net.copy()
-    for gravity in (p.gravity, 0.0):
-        for _ in range(p.max_iterations):
-            d = target - net
-            a = attraction(d, strength=p.attraction, reach=reach)
-            dz = _step(p.elasticity * elasticity(net, cell) + a - gravity, d, a, p)
-            net += dz
-            if np.abs(dz).max() < p.tolerance:
-                break
-    return net
+    return _phases(target, net, lambda n: elasticity(n, cell), reach, p)
 
 
 def relax_on(
@@ -93,19 +85,34 @@ def relax_on(
         inside = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
         nb = np.where(inside, compact[np.where(inside, rr * cols + cc, 0)], -1)
         neighbours.append(np.where(nb >= 0, nb, np.arange(len(idx))))
-    t, v = target.ravel()[idx], net.ravel()[idx].copy()
+
+    def elastic(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        return sum(np.arctan((v[nb] - v) / cell) for nb in neighbours)  # type: ignore[return-value]
+
+    out = net.copy()
+    out.ravel()[idx] = _phases(target.ravel()[idx], net.ravel()[idx], elastic, reach, p)
+    return out
+
+
+def _phases(
+    target: NDArray[np.float64],
+    net: NDArray[np.float64],
+    elastic: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    reach: float,
+    p: ContourParams,
+) -> NDArray[np.float64]:
+    """Both phases (with gravitation, then without) of a net under ``elastic``, the sum of its
+    elasticity forces, whatever shape the net is held in."""
+    net = net.copy()
     for gravity in (p.gravity, 0.0):
         for _ in range(p.max_iterations):
-            d = t - v
+            d = target - net
             a = attraction(d, strength=p.attraction, reach=reach)
-            elastic = sum(np.arctan((v[nb] - v) / cell) for nb in neighbours)
-            dz = _step(p.elasticity * elastic + a - gravity, d, a, p)
-            v += dz
-            if len(dz) == 0 or np.abs(dz).max() < p.tolerance:
+            dz = _step(p.elasticity * elastic(net) + a - gravity, d, a, p)
+            net += dz
+            if dz.size == 0 or np.abs(dz).max() < p.tolerance:
                 break
-    out = net.copy()
-    out.ravel()[idx] = v
-    return out
+    return net
 
 
 def _step(

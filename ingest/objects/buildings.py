@@ -17,8 +17,9 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from ingest.ground.grids import Grid
-from ingest.objects.cover import BUILDING, BUILDING_CELL, Cover
+from ingest.objects.cover import BUILDING_CELL, Cover
 from ingest.objects.outline import outlines
+from tdb.cloud import BUILDING
 from tdb.objects import Building
 
 ROOF_TOP = 0.98  # quantile of the roof returns' heights taken as the roof's top (not an antenna)
@@ -42,7 +43,7 @@ def find_buildings(
     if n == 0:
         return []
     grid = cover.top.grid
-    cell_of = cover.top.cells_of(xyz[:, :2])
+    cell_of = cover.point_cell
     region = regions.ravel()[cell_of]
     roof = (cover.classes == BUILDING) & (region > 0)
     # Only the returns near a roof can be the nearest to a footprint cell.

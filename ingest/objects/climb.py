@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-_NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
+NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
 def climb(surface: NDArray[np.float64], mask: NDArray[np.bool_]) -> NDArray[np.intp]:
@@ -30,7 +30,7 @@ def climb(surface: NDArray[np.float64], mask: NDArray[np.bool_]) -> NDArray[np.i
     r, c = np.divmod(at, cols)
     best = np.arange(len(at))
     best_rank = rank.copy()
-    for dr, dc in _NEIGHBOURS:
+    for dr, dc in NEIGHBOURS:
         rr, cc = r + dr, c + dc
         inside = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
         nb = np.where(inside, compact[np.where(inside, rr * cols + cc, 0)], -1)

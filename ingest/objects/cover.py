@@ -4,10 +4,10 @@ The highest point of each cell more than ``min_height`` over the ground is class
 the median-filtered texture of the height raster (:mod:`ingest.objects.texture`), with a
 two-class mixture fitted to the survey (:mod:`ingest.objects.mixture`). Every region the
 texture calls building is then checked as the paper checks the small ones: inside its
-border a roof is nearly plane (small unfiltered second derivative) and returns few
-double echoes. Checking the large regions too costs nothing and keeps a smooth forest
-canopy, where the smoother of the two texture classes is itself vegetation, from being
-called a roof.
+border a roof's returns lie close to their local plane (the paper's small unfiltered second
+derivative, taken at the points' true positions) and few are double echoes. Checking the
+large regions too costs nothing and keeps a smooth forest canopy, where the smoother of the
+two texture classes is itself vegetation, from being called a roof.
 """
 
 from __future__ import annotations
@@ -21,16 +21,15 @@ from scipy import ndimage
 
 from ingest.ground.grids import Grid, quantised
 from ingest.ground.hills import point_spacing
+from ingest.objects.climb import NEIGHBOURS
 from ingest.objects.heights import TopRaster, above_ground
 from ingest.objects.mixture import fit_two
 from ingest.objects.texture import median_texture
-from tdb.cloud import PointCloud
+from tdb.cloud import BUILDING, GROUND, HIGH_VEGETATION, LOW_VEGETATION, MEDIUM_VEGETATION, OTHER, PointCloud
 from tdb.errors import TdbWarning
 from tdb.fill import fill_nearest
 from tdb.raster import Raster
 
-# ASPRS classes written per point
-OTHER, GROUND, LOW, MEDIUM, HIGH, BUILDING = 1, 2, 3, 4, 5, 6
 VEGETATION_CELL, BUILDING_CELL = 1, 2
 MIN_CELL = 0.25  # m: the finest texture cell, whatever the density
 MIN_CELLS_TO_FIT = 20  # fewer tall cells than this are all vegetation: no mixture to fit
@@ -70,14 +69,16 @@ class CoverParams:
 class Cover:
     """Classes per point (ASPRS codes) and per cell, and each point's height over the ground.
 
-    ``top`` is the texture raster's highest point per cell; ``cells`` (its rows, south to north):
-    0 low or empty, 1 vegetation, 2 building. ``spacing``: the pulses' mean spacing (m).
+    ``top`` is the texture raster's highest point per cell, ``point_cell`` each point's flat
+    cell on it; ``cells`` (its rows, south to north): 0 low or empty, 1 vegetation, 2 building.
+    ``spacing``: the pulses' mean spacing (m).
     ``echo_test`` is false where the survey has single returns only, so no double-echo test ran.
     """
 
     classes: NDArray[np.uint8]
     height: NDArray[np.float64]
     top: TopRaster
+    point_cell: NDArray[np.intp]
     cells: NDArray[np.uint8]
     echo_test: bool
     spacing: float
@@ -125,12 +126,11 @@ def classify_cover(
     if not echo_test:
         warnings.warn(f"{cloud.source}: {SINGLE_RETURNS}", TdbWarning, stacklevel=2)
     tall = np.nan_to_num(h, nan=-np.inf) > p.min_height
-    departure = top.plane_departure(cloud.xyz[:, :2], np.nan_to_num(top.height, nan=-np.inf) > p.min_height)
-    cells = _cell_classes(top, departure, p, _Echoes(cell, tall, multi & tall) if echo_test else None)
+    cells = _cell_classes(top, cloud.xyz[:, :2], p, _Echoes(cell, tall, multi & tall) if echo_test else None)
     classes = _point_classes(h, ground, cells.ravel()[cell], p)
     if skip is not None:
         classes[skip] = cloud.classification[skip]
-    return Cover(classes, h, top, cells, echo_test, spacing)
+    return Cover(classes, h, top, cell, cells, echo_test, spacing)
 
 
 @dataclass(frozen=True)
@@ -152,14 +152,14 @@ class _Echoes:
 
 
 def _cell_classes(
-    top: TopRaster, departure: NDArray[np.float64], p: CoverParams, echoes: _Echoes | None
+    top: TopRaster, xy: NDArray[np.float64], p: CoverParams, echoes: _Echoes | None
 ) -> NDArray[np.uint8]:
     tall = np.nan_to_num(top.height, nan=-np.inf) > p.min_height
     out = np.where(tall, VEGETATION_CELL, 0).astype(np.uint8)
     if tall.sum() < MIN_CELLS_TO_FIT:
         return out
     z = np.asarray(fill_nearest(np.where(np.isfinite(top.height), np.maximum(top.height, 0.0), np.nan)), float)
-    plane = np.asarray(fill_nearest(np.where(tall, departure, np.nan)), float)
+    plane = np.asarray(fill_nearest(np.where(tall, top.plane_departure(xy, tall), np.nan)), float)
     texture = median_texture(z, top.grid.cell)[tall]
     features = np.log(texture + _EPS)
     smooth = fit_two(features).classify(features) == 0
@@ -188,7 +188,7 @@ def _roof_edges(
     grown = roof.copy()
     for _ in range(passes):
         add = np.zeros_like(grown)
-        for dr, dc in _NEIGHBOURS:
+        for dr, dc in NEIGHBOURS:
             one, two = _shift(grown, dr, dc, False), _shift(grown, 2 * dr, 2 * dc, False)
             predicted = 2 * _shift(z, dr, dc, np.nan) - _shift(z, 2 * dr, 2 * dc, np.nan)
             add |= one & two & (np.abs(z - predicted) <= departure)
@@ -197,9 +197,6 @@ def _roof_edges(
             break
         grown |= add
     return grown
-
-
-_NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
 def _shift(a: NDArray, dr: int, dc: int, fill: object) -> NDArray:
@@ -217,7 +214,7 @@ def _shift(a: NDArray, dr: int, dc: int, fill: object) -> NDArray:
 def _roofs(
     candidate: NDArray[np.bool_],
     plane: NDArray[np.float64],
-    cell_size: float,
+    cell: float,
     p: CoverParams,
     echoes: _Echoes | None,
 ) -> NDArray[np.bool_]:
@@ -234,7 +231,7 @@ def _roofs(
     departure = np.full(n + 1, np.inf)
     have = np.flatnonzero(count > 0)
     departure[have] = ndimage.median(plane, labels=np.where(judged, labels, 0), index=have)
-    area = np.bincount(labels.ravel(), minlength=n + 1) * cell_size**2
+    area = np.bincount(labels.ravel(), minlength=n + 1) * cell**2
     ok = (departure <= p.roof_departure) & (area >= p.min_building_area)
     if echoes is not None:
         ok &= echoes.shares(judged, labels, n) <= p.echo_share
@@ -248,9 +245,9 @@ def _point_classes(
     out = np.full(len(h), OTHER, np.uint8)
     hh = np.nan_to_num(h, nan=-np.inf)
     vegetation = cell_class != BUILDING_CELL
-    out[vegetation & (hh >= p.low_height)] = LOW
-    out[vegetation & (hh >= p.min_height)] = MEDIUM
-    out[vegetation & (hh >= p.high_height)] = HIGH
+    out[vegetation & (hh >= p.low_height)] = LOW_VEGETATION
+    out[vegetation & (hh >= p.min_height)] = MEDIUM_VEGETATION
+    out[vegetation & (hh >= p.high_height)] = HIGH_VEGETATION
     out[(cell_class == BUILDING_CELL) & (hh >= p.min_height)] = BUILDING
     out[ground] = GROUND
     return out

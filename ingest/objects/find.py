@@ -79,6 +79,6 @@ def survey_objects(
     ground = classify_ground(cloud, method=method, progress=report, exclude=exclude)
     report("dense model", 0, 1)
     dtm = dense_model(cloud.xyz[ground], resolution=DEFAULT_RESOLUTION, crs=cloud.crs)
-    kept = excluded(cloud.classification, exclude)
-    objects = find_objects(cloud, ground, dtm, params=params, progress=report, skip=kept)
-    return objects
+    return find_objects(
+        cloud, ground, dtm, params=params, progress=report, skip=excluded(cloud.classification, exclude)
+    )

@@ -20,11 +20,11 @@ from scipy import ndimage
 from ingest.ground.contour import ContourParams, relax_on
 from ingest.ground.grids import Grid
 from ingest.objects.climb import climb
-from ingest.objects.cover import HIGH, MEDIUM, Cover, cell_size
+from ingest.objects.cover import Cover, cell_size
 from ingest.objects.crowns import choose_scales
 from ingest.objects.heights import TopRaster
 from ingest.objects.outline import outlines
-from tdb.cloud import PointCloud
+from tdb.cloud import HIGH_VEGETATION, MEDIUM_VEGETATION, PointCloud
 from tdb.fill import fill_nearest
 from tdb.objects import Tree
 
@@ -60,7 +60,7 @@ def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = N
     params : see :class:`TreeParams`.
     """
     p = params or TreeParams()
-    tall = np.isin(cover.classes, (MEDIUM, HIGH))
+    tall = np.isin(cover.classes, (MEDIUM_VEGETATION, HIGH_VEGETATION))
     if tall.sum() < 3:
         return []
     grid = Grid.covering(cloud.xyz[tall, :2], cell_size(cover.spacing, spacings=p.cell_spacings))

@@ -54,6 +54,7 @@ def command(
     from ingest.readers import read, write_las
     from tdb.atomic import GEOPACKAGE, POINTS, check_destination
     from tdb.cli.progress import Bars
+    from tdb.cloud import CLASS_NAMES
     from tdb.objects import FEATURES, building_features, write_features
     from tdb.units import to_metres
 
@@ -64,16 +65,8 @@ def command(
     metric = to_metres(raw, assume_metres=assume_metres)
     with Bars(unit="tile") as bars:
         found = survey_objects(metric, method=method, exclude=exclude, progress=bars)
-    counts = np.bincount(found.classes, minlength=7)
-    names = {
-        2: "ground",
-        3: "low vegetation",
-        4: "medium vegetation",
-        5: "high vegetation",
-        6: "building",
-        1: "other",
-    }
-    click.echo(", ".join(f"{counts[k]:,} {name}" for k, name in names.items() if k < len(counts)))
+    counts = np.bincount(found.classes, minlength=max(CLASS_NAMES) + 1)
+    click.echo(", ".join(f"{counts[k]:,} {name}" for k, name in CLASS_NAMES.items()))
     write_las(out, raw, classification=found.classes)
     click.echo(f"wrote {out}")
     if buildings:
