@@ -129,28 +129,30 @@ coregistrations = Table(
 )
 
 
-trees = Table(
+def _object_table(name: str, *columns: Column) -> Table:
+    """One row per object of a version, keyed by its position (x, y): the B-tree an area read walks."""
+    return Table(
+        name,
+        metadata,
+        Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+        Column("x", Float(53), primary_key=True),
+        Column("y", Float(53), primary_key=True),
+        *columns,
+        sqlite_with_rowid=False,
+    )
+
+
+trees = _object_table(
     "trees",
-    metadata,
-    Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
-    Column("x", Float(53), primary_key=True),
-    Column("y", Float(53), primary_key=True),
     Column("height", Float, nullable=False),
     Column("crown_diameter", Float, nullable=False),
     Column("crown", LargeBinary, nullable=False),
-    sqlite_with_rowid=False,
 )
-
-buildings = Table(
+buildings = _object_table(
     "buildings",
-    metadata,
-    Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
-    Column("x", Float(53), primary_key=True),
-    Column("y", Float(53), primary_key=True),
     Column("height", Float, nullable=False),
     Column("area", Float, nullable=False),
     Column("footprint", LargeBinary, nullable=False),
-    sqlite_with_rowid=False,
 )
 
 
