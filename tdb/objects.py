@@ -46,14 +46,14 @@ class Building:
 FEATURES = (".geojson", ".json")  # a GeoJSON FeatureCollection; ".gpkg" for a GeoPackage
 
 
-def tree_features(trees: list[Tree], *, kind: str | None = None) -> list[dict[str, Any]]:
-    """The trees as GeoJSON features: crowns as polygons, the top's position in the properties
-    (and ``kind`` where given, as for a change)."""
+def tree_features(trees: list[Tree], *, kind: str = "tree") -> list[dict[str, Any]]:
+    """The trees as GeoJSON features: crowns as polygons, with ``kind`` (another for a change)
+    and the top's position in the properties."""
     return [
         feature(
             t.crown,
             {
-                **({"kind": kind} if kind else {}),
+                "kind": kind,
                 "x": round(t.x, 3),
                 "y": round(t.y, 3),
                 "height": round(t.height, 2),
@@ -74,14 +74,10 @@ def tree_top_features(trees: list[Tree]) -> list[dict[str, Any]]:
     ]
 
 
-def building_features(buildings: list[Building], *, kind: str | None = None) -> list[dict[str, Any]]:
-    """The buildings as GeoJSON features: footprints with roof height and area (and ``kind``
-    where given)."""
+def building_features(buildings: list[Building], *, kind: str = "building") -> list[dict[str, Any]]:
+    """The buildings as GeoJSON features: footprints with ``kind``, roof height and area."""
     return [
-        feature(
-            b.footprint,
-            {**({"kind": kind} if kind else {}), "height": round(b.height, 2), "area": round(b.area, 1)},
-        )
+        feature(b.footprint, {"kind": kind, "height": round(b.height, 2), "area": round(b.area, 1)})
         for b in buildings
     ]
 

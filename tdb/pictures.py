@@ -48,6 +48,12 @@ KIND_COLOURS = {
     "embankment": (0.55, 0.2, 0.7),
     "pit": (0.0, 0.6, 0.8),
     "mound": (0.8, 0.1, 0.5),
+    "tree": (0.05, 0.45, 0.1),
+    "tree new": (0.05, 0.45, 0.1),
+    "tree felled": (0.55, 0.35, 0.1),
+    "building": (0.75, 0.1, 0.1),
+    "building added": (0.75, 0.1, 0.1),
+    "building removed": (0.4, 0.4, 0.4),
 }
 LOWERED, RAISED = (0.8, 0.2, 0.1), (0.1, 0.35, 0.8)
 
@@ -300,8 +306,7 @@ def area_picture(path: str | os.PathLike[str], area: Any, surface: Raster) -> No
     _save(fig, path, dpi=100, bbox_inches="tight")
 
 
-TREE_COLOUR = (0.05, 0.45, 0.1)
-BUILDING_COLOUR = (0.75, 0.1, 0.1)
+TREE_COLOUR, BUILDING_COLOUR = KIND_COLOURS["tree"], KIND_COLOURS["building"]
 
 
 def _draw_objects(ax: Any, trees: list[Any], buildings: list[Any]) -> list[tuple[str, Any, str]]:
