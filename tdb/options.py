@@ -70,6 +70,15 @@ class Coregistration(Option):
     NUTH_KAAB = "nuth-kaab"  # horizontal (Nuth & Kääb 2011) and vertical, applied whatever their size
 
 
+class Terrain(Option):
+    """The landscape a synthetic scene is made of."""
+
+    PLAIN = "plain"  # hills and an escarpment carrying the forms the queries look for
+    # also natural valleys and spurs, roads with shoulders and roadside ditches, field edges,
+    # ditches that fade out and ditches under canopy: the look-alikes of real terrain
+    RUGGED = "rugged"
+
+
 E = TypeVar("E", bound=Option)
 
 

@@ -21,6 +21,30 @@ def distance_to_polyline(
     return best
 
 
+def project_on_polyline(
+    x: NDArray[np.float64], y: NDArray[np.float64], coords: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """For each point (x, y), its plan distance to the polyline ``coords`` (M, 2), where along the
+    line its nearest point lies (0 at the first vertex, 1 at the last) and on which side it lies
+    (+1 left of the line's direction, −1 right)."""
+    best = np.full(x.shape, np.inf)
+    at = np.zeros(x.shape)
+    side = np.ones(x.shape)
+    run = 0.0
+    seg = np.hypot(*np.diff(coords, axis=0).T)
+    total = float(seg.sum()) or 1.0
+    for ((ax, ay), (bx, by)), length in zip(itertools.pairwise(coords), seg):
+        dx, dy = bx - ax, by - ay
+        t = np.zeros_like(x) if length == 0 else np.clip(((x - ax) * dx + (y - ay) * dy) / length**2, 0, 1)
+        d = np.hypot(x - (ax + t * dx), y - (ay + t * dy))
+        closer = d < best
+        best = np.where(closer, d, best)
+        at = np.where(closer, (run + t * length) / total, at)
+        side = np.where(closer, np.where(dx * (y - ay) - dy * (x - ax) >= 0, 1.0, -1.0), side)
+        run += float(length)
+    return best, at, side
+
+
 def wander(
     start: tuple[float, float],
     heading: float,

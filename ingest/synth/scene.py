@@ -12,44 +12,15 @@ from typing import Any
 import numpy as np
 import shapely
 from shapely.geometry import LineString, Point, Polygon
-from shapely.geometry.base import BaseGeometry
 
+from ingest.synth import rugged as look_alikes
+from ingest.synth.forms import GAP, Feature, Placer
 from ingest.synth.geometry import wander
 from tdb.errors import InputError
+from tdb.options import Terrain, parse
 
 DEFAULT_CRS = "EPSG:25832"
 DEFAULT_ORIGIN = (500_000.0, 5_500_000.0)
-
-
-@dataclass(frozen=True)
-class Feature:
-    """A terrain feature carved into or built onto the bare earth.
-
-    kind: ditch, ridge, wall, embankment, pit or mound. ``geometry`` is the
-    centreline (LineString) or centre (Point). ``size`` is the depth (ditch,
-    pit) or height (others) in metres; ``width`` the full width (lines) or the
-    diameter (points); ``profile`` V or U for ditches and ridges.
-    """
-
-    kind: str
-    geometry: BaseGeometry
-    size: float
-    width: float
-    profile: str = "V"
-    ident: int = 0
-    joined_to: int | None = None
-
-    @property
-    def sign(self) -> float:
-        return -1.0 if self.kind in ("ditch", "pit") else 1.0
-
-    @property
-    def reach(self) -> float:
-        """Plan distance beyond which the feature leaves the terrain unchanged."""
-        return self.width / 2
-
-    def footprint(self) -> BaseGeometry:
-        return self.geometry.buffer(self.reach)
 
 
 @dataclass(frozen=True)
@@ -99,30 +70,6 @@ class Scene:
 
 
 MIN_SIZE, MAX_SIZE = 100.0, 20_000.0
-GAP = 5.0  # plan clearance between features (m)
-
-
-class Placer:
-    """Rejection sampling of shapes that must not overlap what is already placed."""
-
-    def __init__(self, bounds: tuple[float, float, float, float], rng: np.random.Generator):
-        self.bounds = bounds
-        self.rng = rng
-        self.taken: list[BaseGeometry] = []
-        self.area = Polygon.from_bounds(*bounds)
-
-    def free(self, shape: BaseGeometry, gap: float) -> bool:
-        if not self.area.buffer(-2.0).contains(shape):
-            return False
-        grown = shape.buffer(gap)
-        return not any(grown.intersects(t) for t in self.taken)
-
-    def point(self, margin: float = 0.0) -> tuple[float, float]:
-        x0, y0, x1, y1 = self.bounds
-        return (
-            float(self.rng.uniform(x0 + margin, x1 - margin)),
-            float(self.rng.uniform(y0 + margin, y1 - margin)),
-        )
 
 
 def make_scene(
@@ -131,12 +78,15 @@ def make_scene(
     size: float = 300.0,
     origin: tuple[float, float] = DEFAULT_ORIGIN,
     crs: str = DEFAULT_CRS,
+    terrain: Terrain | str = Terrain.PLAIN,
 ) -> Scene:
     """Generate a scene of ``size`` × ``size`` metres, deterministic from ``seed``.
 
     Feature counts grow with the area: per hectare-scale blocks of ditches
     (straight, curved, V and U, some joined), ridges, walls, an embankment,
-    pits and mounds, buildings with flat and gable roofs, and tree stands.
+    pits and mounds, buildings with flat and gable roofs, and tree stands. A rugged
+    ``terrain`` adds the look-alikes of real terrain (:mod:`ingest.synth.rugged`), a
+    third of its ditches fade out, and all its ditches are 0.5–1.4 m deep and 1.8–4 m wide.
 
     Raises
     ------
@@ -145,6 +95,8 @@ def make_scene(
     """
     if not (MIN_SIZE <= size <= MAX_SIZE):
         raise InputError(f"scene size must be {MIN_SIZE:.0f}..{MAX_SIZE:.0f} m, got {size}")
+    terrain = parse(Terrain, terrain)
+    rugged = terrain is Terrain.RUGGED
     rng = np.random.default_rng(seed)
     bounds = (origin[0], origin[1], origin[0] + size, origin[1] + size)
     relief = _make_relief(bounds, rng)
@@ -160,6 +112,8 @@ def make_scene(
     }
     # One of every kind first, so small scenes hold them all; then the area-scaled rest.
     _add_embankments(features, placer, count=max(1, round(blocks / 4)))
+    if rugged:
+        _add_look_alikes(features, placer, blocks)
     buildings = _add_buildings(placer, count=1)
     for rest in (False, True):
         for kind, count in counts.items():
@@ -167,10 +121,30 @@ def make_scene(
             if kind in ("pit", "mound"):
                 _add_points(features, placer, kind, count=n)
             else:
-                _add_lines(features, placer, kind, count=n, join_share=0.3 if kind == "ditch" and rest else 0.0)
+                _add_lines(
+                    features,
+                    placer,
+                    kind,
+                    count=n,
+                    join_share=0.3 if kind == "ditch" and rest else 0.0,
+                    rugged=rugged,
+                )
     buildings += _add_buildings(placer, count=max(1, round(2 * blocks)) - 1, first_ident=1)
     trees = _add_trees(placer, stands=max(2, round(3 * blocks)))
-    return Scene(bounds, relief, tuple(features), tuple(buildings), tuple(trees), crs=crs, seed=seed)
+    if rugged:
+        stands = [(t.x, t.y, t.height, t.crown_radius) for t in trees]
+        over = look_alikes.canopy_over_ditches(features, placer, stands, avoid=[b.footprint for b in buildings])
+        trees += [Tree(*t) for t in over]
+    meta = {"terrain": terrain.value}
+    return Scene(bounds, relief, tuple(features), tuple(buildings), tuple(trees), crs=crs, seed=seed, meta=meta)
+
+
+def _add_look_alikes(features: list[Feature], placer: Placer, blocks: float) -> None:
+    """The rugged scene's natural and man-made relief, placed first: they are the largest."""
+    look_alikes.add_roads(features, placer, count=max(1, round(blocks / 4)))
+    look_alikes.add_field_edges(features, placer, count=max(1, round(blocks / 3)))
+    look_alikes.add_natural(features, placer, "valley", count=max(2, round(0.6 * blocks)))
+    look_alikes.add_natural(features, placer, "spur", count=max(1, round(0.4 * blocks)))
 
 
 def _make_relief(bounds: tuple[float, float, float, float], rng: np.random.Generator) -> Relief:
@@ -198,6 +172,8 @@ def _make_relief(bounds: tuple[float, float, float, float], rng: np.random.Gener
     )
 
 
+RUGGED_DITCH = ((0.5, 1.4), (1.8, 4.0))  # depth, width (m)
+FADE_SHARE = 1 / 3  # share of a rugged scene's free ditches that fade out towards one end
 LINE_SPECS = {
     # kind: (size range, width range, length range, profiles)
     "ditch": ((0.3, 1.5), (1.0, 4.0), (40.0, 160.0), ("V", "U")),
@@ -206,9 +182,19 @@ LINE_SPECS = {
 }
 
 
-def _add_lines(features: list[Feature], placer: Placer, kind: str, *, count: int, join_share: float = 0.0) -> None:
+def _add_lines(
+    features: list[Feature],
+    placer: Placer,
+    kind: str,
+    *,
+    count: int,
+    join_share: float = 0.0,
+    rugged: bool = False,
+) -> None:
     rng = placer.rng
     (s0, s1), (w0, w1), (l0, l1), profiles = LINE_SPECS[kind]
+    if rugged and kind == "ditch":
+        (s0, s1), (w0, w1) = RUGGED_DITCH
     size = placer.bounds[2] - placer.bounds[0]
     mine: list[Feature] = []
     peers = [f for f in features if f.kind == kind]
@@ -246,6 +232,7 @@ def _add_lines(features: list[Feature], placer: Placer, kind: str, *, count: int
             check = geom
         if check.is_empty or not placer.free(check.buffer(width / 2), gap=GAP):
             continue
+        fades = rugged and kind == "ditch" and joined_to is None and rng.random() < FADE_SHARE
         feature = Feature(
             kind,
             geom,
@@ -254,6 +241,7 @@ def _add_lines(features: list[Feature], placer: Placer, kind: str, *, count: int
             profile=str(rng.choice(profiles)),
             ident=len(features),
             joined_to=joined_to,
+            end_size=0.0 if fades else None,
         )
         features.append(feature)
         mine.append(feature)

@@ -29,9 +29,14 @@ def scene_truth(scene: Scene) -> dict[str, Any]:
             props["length"] = round(f.geometry.length, 2)
         if f.joined_to is not None:
             props["joined_to"] = f.joined_to
-        if f.kind == "embankment":
+        if f.kind in ("embankment", "road"):
             props["length"] = round(f.geometry.length, 2)
             props.update({k: float(v) for k, v in (p.split("=") for p in f.profile.split(","))})
+        if f.tapers:  # towards the line's last vertex; depth (height) and width are at its first
+            props["end_depth" if f.sign < 0 else "end_height"] = f.size if f.end_size is None else f.end_size
+            props["end_width"] = f.width if f.end_width is None else f.end_width
+        if f.kind == "edge":
+            props.update({"length": round(f.geometry.length, 2), "terrace": f.terrace})
         out.append(feature(f.geometry, props))
     for b in scene.buildings:
         out.append(feature(b.footprint, {"kind": "building", "id": b.ident, "height": b.height, "roof": b.roof}))

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import click
 
+from tdb.options import Terrain
+
 
 @click.command("synth")
 @click.option(
@@ -19,6 +21,13 @@ import click
 @click.option("--density", type=float, default=4.0, show_default=True, help="Pulses per m², 0.05..50.")
 @click.option("--changed", type=click.Path(path_type=Path), help="Also write a later survey with known changes.")
 @click.option("--changes", type=click.Path(path_type=Path), help="GeoJSON of the changes (with --changed).")
+@click.option(
+    "--terrain",
+    type=click.Choice(Terrain.values()),
+    default=Terrain.PLAIN.value,
+    show_default=True,
+    help="rugged adds natural valleys and spurs, roads, field edges, fading ditches and ditches under trees.",
+)
 def command(
     out: Path,
     truth: Path | None,
@@ -27,6 +36,7 @@ def command(
     density: float,
     changed: Path | None,
     changes: Path | None,
+    terrain: str,
 ) -> None:
     """Write a synthetic scene: relief, ditches, ridges, walls, an embankment, pits,
     mounds, buildings and trees, classified 2 ground, 5 vegetation, 6 building, 7 noise.
@@ -36,6 +46,7 @@ def command(
       tdb synth --out scene.laz --truth truth.geojson
       tdb synth --size 1000 --density 10 --seed 3 --out big.laz
       tdb synth --out v1.laz --changed v2.laz --changes changes.geojson
+      tdb synth --terrain rugged --size 400 --out rugged.laz --truth truth.geojson
     """
     from ingest.synth import apply_changes, changes_truth, make_scene, scene_truth, write_scene
     from ingest.synth.truth import write_json
@@ -53,7 +64,7 @@ def command(
     for path in (truth, changes):
         if path is not None:
             check_destination(path, what="a GeoJSON file")
-    scene = make_scene(seed=seed, size=size)
+    scene = make_scene(seed=seed, size=size, terrain=terrain)
     with Bars(unit="block") as bars:
         n = write_scene(out, scene, density=density, seed=seed, progress=bars)
     click.echo(f"wrote {n:,} points to {out}")
