@@ -76,6 +76,7 @@ class Filter:
     min_shoulder: float | None = None  # queries.shoulder: a ridge's flanks stand, a wall's do not
     max_shoulder: float | None = None
     broad_width: float | None = None  # queries.profile: at least this wide is broad, whatever the shoulder
+    max_spread: float | None = None  # queries.match: relief twice as far off, over the relief, at most this
     around: bool = False  # queries.relief: the extreme stands out all round (mound, pit), not across a line
     facing: bool = False  # queries.facing: plane tiles facing each other across an edge join as well
 

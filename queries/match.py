@@ -29,6 +29,7 @@ from tdb.tiles import NodeLattice, node_lattice
 REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
 LINK_TILES = 3.0  # extreme nodes of touching tiles lie at most 2√2 tiles apart
 TILE_SHARE = 0.5  # a tile joins an object when its own relief reaches this share of min_measure
+SPREAD_READ = 2  # a form's spread: its relief read this many times farther off than its relief (max_spread)
 
 
 def _broad(
@@ -78,7 +79,7 @@ def find(
     evidence = candidates(xg, yg, code, flt, lv)
     if not np.logical_or(*evidence).any():
         return []
-    grow = REACH_TILES * lv + lv
+    grow = SPREAD_READ * REACH_TILES * lv + lv
     px, py, pz, _ = db.points(
         version,
         level=lv,
@@ -176,6 +177,7 @@ def _objects(
         ok = relief >= share * flt.min_measure if flt.around else ~(relief < share * flt.min_measure)
     keep, relief, ex, ey = cand[ok], relief[ok], ex[ok], ey[ok]
     groups = components(xg[keep], yg[keep], code[keep], flt, level, accept=np.ones(len(keep), bool))
+    wide = _relief_farther(lattice, xg[keep], yg[keep], code[keep], flt, level=level)
     found: list[tuple[NDArray[np.intp], float]] = []
     for g in groups:
         if not np.isfinite(relief[g]).any():
@@ -186,8 +188,36 @@ def _objects(
             continue
         if flt.linear and elongation(ex[g], ey[g], level=level) < flt.min_elongation:
             continue
+        if wide is not None and flt.max_spread is not None and _spread(wide[g], measure) > flt.max_spread:
+            continue
         found.append((g, measure))
     return _Candidates(keep, ex, ey, found)
+
+
+def _relief_farther(
+    lattice: NodeLattice,
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    code: NDArray[np.uint8],
+    flt: Filter,
+    *,
+    level: int,
+) -> NDArray[np.float64] | None:
+    """Each tile's relief read ``SPREAD_READ`` times farther off than its own; None where the
+    filter sets no ``max_spread``."""
+    if flt.max_spread is None or not flt.linear or flt.measure is Measure.STEP or len(xg) == 0:
+        return None
+    _, _, wide = tile_relief(
+        lattice, xg, yg, measure=flt.measure, reach=SPREAD_READ * REACH_TILES * level, along=BREAK_LINES[code]
+    )
+    return wide
+
+
+def _spread(wide: NDArray[np.float64], measure: float) -> float:
+    """A form's relief read farther off over its own (NaN, which passes, where either is unknown)."""
+    if not np.isfinite(wide).any() or not measure > 0:
+        return float("nan")
+    return float(np.nanmedian(wide)) / measure
 
 
 def _centre_lines(found: _Candidates, flt: Filter, *, level: int) -> list[shapely.Geometry]:

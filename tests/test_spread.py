@@ -1,0 +1,58 @@
+"""A ditch's banks lie within the reach of its line; a natural valley widens beyond (max_spread)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import shapely
+
+import tdb
+from ingest.pipeline import IngestOptions, ingest
+from ingest.synth import make_scene, sample
+from ingest.synth.forms import Feature
+from queries.match import find, resolve
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def hollows(tmp_path_factory):
+    """A 160 m scene holding a ditch and a ridge, each beside a natural valley or spur about as deep
+    (high) but three to five times as wide, and nothing else."""
+    base = make_scene(seed=2, size=160)
+    x0, y0 = base.bounds[:2]
+
+    def line(y: float) -> shapely.LineString:
+        return shapely.LineString([(x0 + 20, y0 + y), (x0 + 110, y0 + y + 8)])
+
+    features = (
+        Feature("ditch", line(20), 0.8, 3.0, "V", 0),
+        Feature("valley", line(55), 0.8, 16.0, "natural", 1),
+        Feature("ridge", line(95), 0.8, 4.0, "U", 2),
+        Feature("spur", line(130), 1.0, 12.0, "natural", 3),
+    )
+    scene = replace(base, features=features, buildings=(), trees=())
+    db = tdb.open(tmp_path_factory.mktemp("spread") / "s.tdb", create=True)
+    ingest(sample(scene, density=4, seed=2), db, version="v", options=IngestOptions(exclude=()))
+    return scene, db
+
+
+def _found_near(matches, feature: Feature) -> float:
+    found = shapely.union_all([m.geometry for m in matches])
+    return float(found.intersection(feature.geometry.buffer(3.0)).length / feature.geometry.length)
+
+
+@pytest.mark.parametrize(("kind", "form", "look_alike"), [("ditch", 0, 1), ("ridge", 2, 3)])
+def test_the_filter_keeps_the_narrow_form_and_drops_the_wide_one(hollows, kind, form, look_alike):
+    scene, db = hollows
+    flt = resolve(kind)
+    assert flt.max_spread is not None
+    matches = find(db, "v", flt)
+    assert _found_near(matches, scene.features[form]) > 0.8
+    assert _found_near(matches, scene.features[look_alike]) < 0.1
+    # without the test, the wide form is taken for the narrow one: the test is what parts them
+    unbounded = find(db, "v", replace(flt, max_spread=None))
+    assert _found_near(unbounded, scene.features[look_alike]) > 0.3
+    assert np.isclose(_found_near(unbounded, scene.features[form]), _found_near(matches, scene.features[form]))
