@@ -9,6 +9,7 @@ import json
 from typing import Any
 
 from benchmarks.common import RESULTS, ROOT
+from benchmarks.report_feature_peers import feature_peers_section
 from benchmarks.report_objects import objects_section
 
 SOHN_SITE = RESULTS / "sohn_speed.json"
@@ -607,6 +608,8 @@ def main() -> None:
     )
     for section in sections:
         section(out)
+    peers = _load("feature_peers")
+    feature_peers_section(out, peers, _machine(peers) if peers else "")
     cv = _load("objects_cv")
     objects_section(out, cv, _load("objects_speed"), _machine(cv) if cv else "")
     out += [
