@@ -25,6 +25,7 @@ test: lint
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install -q -e ".[dev,bench]"
+	@command -v grass >/dev/null || echo "GRASS is not installed (Debian: apt install grass-core): the geomorphon peer is skipped"
 	$(BIN)/python -m benchmarks.run_all
 
 clean:

@@ -20,11 +20,14 @@ MODULES = (
     "ground_speed",
     "reduction",
     "features",
+    "feature_peers",  # GRASS's geomorphons where `grass` is installed (Debian grass-core)
     "changes_synth",
     "epochs",
     "coregister_synth",
     "coregister_peers",
     "copc_read",
+    "objects_cv",
+    "objects_speed",
 )
 
 
