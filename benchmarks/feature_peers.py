@@ -16,6 +16,8 @@ The peers' settings are chosen by leave-one-scene-out: each scene is scored with
 setting of best mean F1 on the other scenes. Beside it, the setting chosen on all scenes.
 tdb's settings were chosen on the plain scenes, none on these.
     python -m benchmarks.feature_peers [--seeds 1,2,3,4,5] [--size 400] [--density 4]
+Other densities are saved beside the main table (``feature_peers_d1.json`` …) and reported as its
+density rows.
 """
 
 from __future__ import annotations
@@ -54,6 +56,7 @@ from queries.run import run
 from tdb.raster import Raster
 
 CELL = 1.0
+DENSITY = 4.0  # pulses/m² of the main table
 STEP = 0.25  # m between the points at which lines are scored
 KINDS = ("ditch", "ridge")
 Truth = tuple[list[shapely.Geometry], list[shapely.Geometry]]  # what recall counts, what precision counts
@@ -180,11 +183,16 @@ def summarise(runs: dict[int, dict[str, Any]]) -> dict[str, Any]:
     return summary
 
 
+def result_name(density: float) -> str:
+    """The results file of a run: the 4 pulses/m² one is the main table, the others its density rows."""
+    return "feature_peers" if density == DENSITY else f"feature_peers_d{density:g}"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", default="1,2,3,4,5")
     parser.add_argument("--size", type=float, default=400.0)
-    parser.add_argument("--density", type=float, default=4.0)
+    parser.add_argument("--density", type=float, default=DENSITY)
     args = parser.parse_args()
     seeds = [int(s) for s in args.seeds.split(",")]
     runs = {}
@@ -199,7 +207,7 @@ def main() -> None:
         "geomorphon": [vars(s) for s in geomorphon_settings()] if grass_available() else [],
     }
     path = save(
-        "feature_peers",
+        result_name(args.density),
         {"size": args.size, "density": args.density, "runs": runs, "summary": summary, "settings": settings},
     )
     for method, kinds in summary.items():

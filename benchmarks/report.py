@@ -609,7 +609,8 @@ def main() -> None:
     for section in sections:
         section(out)
     peers = _load("feature_peers")
-    feature_peers_section(out, peers, _machine(peers) if peers else "")
+    densities = [json.loads(p.read_text()) for p in sorted(RESULTS.glob("feature_peers_d*.json"))]
+    feature_peers_section(out, peers, _machine(peers) if peers else "", densities)
     cv = _load("objects_cv")
     objects_section(out, cv, _load("objects_speed"), _machine(cv) if cv else "")
     out += [

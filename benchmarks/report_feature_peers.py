@@ -19,7 +19,9 @@ def _rpf(r: dict[str, float]) -> str:
     return f"{r['recall']:.3f} / {'–' if not np.isfinite(p) else f'{p:.3f}'} / {r['f1']:.3f}"
 
 
-def feature_peers_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> None:
+def feature_peers_section(
+    out: list[str], doc: dict[str, Any] | None, machine: str, densities: list[dict[str, Any]] | None = None
+) -> None:
     if doc is None:
         return
     summary, runs = doc["summary"], doc["runs"]
@@ -67,6 +69,24 @@ def feature_peers_section(out: list[str], doc: dict[str, Any] | None, machine: s
             + " | ".join(peers)
             + f" | {t['ditch']['query_s']:.2f} |"
         )
+    if densities:
+        out += [
+            "",
+            "Other densities (same scenes; the peers on tdb's dense model, held out):",
+            "",
+            "| pulses/m² | seeds | tdb ditch | tdb ridge | tdb size class | geomorphon ditch | geomorphon ridge "
+            "| local relief ditch | local relief ridge |",
+            "|---|---|---|---|---|---|---|---|---|",
+        ]
+        for d in sorted(densities, key=lambda d: d["density"]):
+            s = d["summary"]
+            peer = [
+                _rpf(s[k][kind]["held_out_mean"]) if k in s else "–"
+                for k in ("geomorphon_tdb_dtm", "relief_tdb_dtm")
+                for kind in ("ditch", "ridge")
+            ]
+            tdb = [_rpf(s["tdb"][k]) for k in ("ditch", "ridge", "ditch_class")]
+            out.append(f"| {d['density']:g} | {', '.join(d['runs'])} | " + " | ".join(tdb + peer) + " |")
     out += [
         "",
         "The scenes hold natural valleys and spurs that widen downstream, roads on a raised bed with roadside "
