@@ -19,7 +19,7 @@ from queries.filters import (
     tile_lines,
 )
 from queries.profile import Nodes, form_width
-from queries.relief import tile_relief
+from queries.relief import tile_relief, two_sided_relief
 from queries.shoulder import shoulders
 from tdb.database import Database
 from tdb.errors import FilterError
@@ -177,7 +177,7 @@ def _objects(
         ok = relief >= share * flt.min_measure if flt.around else ~(relief < share * flt.min_measure)
     keep, relief, ex, ey = cand[ok], relief[ok], ex[ok], ey[ok]
     groups = components(xg[keep], yg[keep], code[keep], flt, level, accept=np.ones(len(keep), bool))
-    wide = _relief_farther(lattice, xg[keep], yg[keep], code[keep], flt, level=level)
+    wide = _relief_farther(lattice, ex, ey, code[keep], flt, level=level)
     found: list[tuple[NDArray[np.intp], float]] = []
     for g in groups:
         if not np.isfinite(relief[g]).any():
@@ -196,21 +196,21 @@ def _objects(
 
 def _relief_farther(
     lattice: NodeLattice,
-    xg: NDArray[np.int64],
-    yg: NDArray[np.int64],
+    ex: NDArray[np.float64],
+    ey: NDArray[np.float64],
     code: NDArray[np.uint8],
     flt: Filter,
     *,
     level: int,
 ) -> NDArray[np.float64] | None:
-    """Each tile's relief read ``SPREAD_READ`` times farther off than its own; None where the
-    filter sets no ``max_spread``."""
-    if flt.max_spread is None or not flt.linear or flt.measure is Measure.STEP or len(xg) == 0:
+    """The relief of each tile's extreme node (``ex``, ``ey``, as its own relief picked it) read
+    ``SPREAD_READ`` times farther off; None where the filter sets no ``max_spread``."""
+    if flt.max_spread is None or not flt.linear or flt.measure is Measure.STEP or len(ex) == 0:
         return None
-    _, _, wide = tile_relief(
-        lattice, xg, yg, measure=flt.measure, reach=SPREAD_READ * REACH_TILES * level, along=BREAK_LINES[code]
-    )
-    return wide
+    s = lattice.spacing
+    ez = lattice.at(np.rint(ex / s).astype(np.int64), np.rint(ey / s).astype(np.int64))
+    reach = SPREAD_READ * REACH_TILES * level
+    return two_sided_relief(lattice, ex, ey, ez, measure=flt.measure, reach=reach, along=BREAK_LINES[code])
 
 
 def _spread(wide: NDArray[np.float64], measure: float) -> float:
