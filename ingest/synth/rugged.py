@@ -9,6 +9,8 @@ raised on a bed with sloping shoulders and often a ditch beside them, field edge
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import shapely
 from shapely.geometry import LineString, Point
@@ -23,6 +25,7 @@ ROAD_TOP, ROAD_SHOULDER, ROAD_HEIGHT = (4.0, 7.0), (1.5, 3.0), (0.2, 0.6)
 EDGE_HEIGHT, EDGE_BANK, EDGE_TERRACE = (0.3, 1.2), (2.0, 5.0), (12.0, 25.0)
 ROADSIDE_DITCH = 0.6  # share of roads with a ditch along one side
 CANOPY_SHARE = 0.3  # share of ditches under a stand of trees
+TRIES = 40  # random draws per feature wanted before giving up on it
 
 
 def _line(placer: Placer, length: float, curvature: float) -> LineString:
@@ -32,12 +35,21 @@ def _line(placer: Placer, length: float, curvature: float) -> LineString:
     return LineString(wander(start, heading, length, curvature=curvature, rng=placer.rng))
 
 
-def _place(features: list[Feature], placer: Placer, feature: Feature, *, gap: float = GAP) -> bool:
-    if not placer.free(feature.footprint(), gap=gap):
-        return False
-    features.append(feature)
-    placer.taken.append(feature.footprint())
-    return True
+def _place_many(
+    features: list[Feature], placer: Placer, make: Callable[[int], list[Feature]], *, count: int
+) -> None:
+    """Place ``count`` draws of ``make`` (given how many are placed so far), each one or more
+    features that must lie clear of what is already placed; ``TRIES`` draws per one wanted."""
+    placed = 0
+    for _ in range(count * TRIES):
+        if placed >= count:
+            return
+        new = make(placed)
+        shape = shapely.union_all([f.footprint() for f in new])
+        if new and placer.free(shape, gap=GAP):
+            features.extend(new)
+            placer.taken.append(shape)
+            placed += 1
 
 
 def add_natural(features: list[Feature], placer: Placer, kind: str, *, count: int) -> None:
@@ -45,34 +57,33 @@ def add_natural(features: list[Feature], placer: Placer, kind: str, *, count: in
     cycling through small, medium and large."""
     rng = placer.rng
     span = placer.bounds[2] - placer.bounds[0]
-    placed = 0
-    for _ in range(count * 40):
-        if placed >= count:
-            return
+
+    def make(placed: int) -> list[Feature]:
         (w0, s0), (w1, s1) = NATURAL_SIZES[placed % len(NATURAL_SIZES)]
         jitter = rng.uniform(0.8, 1.25, size=4)
         geom = _line(placer, float(rng.uniform(0.35, 0.7) * min(span, 300.0)), float(rng.uniform(0.2, 0.5)))
-        feature = Feature(
-            kind,
-            geom,
-            float(round(s0 * jitter[0], 2)),
-            float(round(w0 * jitter[1], 2)),
-            profile="natural",
-            ident=len(features),
-            end_size=float(round(s1 * jitter[2], 2)),
-            end_width=float(round(w1 * jitter[3], 2)),
-        )
-        placed += _place(features, placer, feature)
+        return [
+            Feature(
+                kind,
+                geom,
+                float(round(s0 * jitter[0], 2)),
+                float(round(w0 * jitter[1], 2)),
+                profile="natural",
+                ident=len(features),
+                end_size=float(round(s1 * jitter[2], 2)),
+                end_width=float(round(w1 * jitter[3], 2)),
+            )
+        ]
+
+    _place_many(features, placer, make, count=count)
 
 
 def add_roads(features: list[Feature], placer: Placer, *, count: int) -> None:
     """Roads on a raised bed with sloping shoulders, most with a ditch along one side."""
     rng = placer.rng
     span = placer.bounds[2] - placer.bounds[0]
-    placed = 0
-    for _ in range(count * 40):
-        if placed >= count:
-            return
+
+    def make(_placed: int) -> list[Feature]:
         top, slope = float(rng.uniform(*ROAD_TOP)), float(rng.uniform(*ROAD_SHOULDER))
         geom = _line(placer, float(rng.uniform(0.5, 0.85) * span), float(rng.uniform(0.0, 0.3)))
         road = Feature(
@@ -83,43 +94,38 @@ def add_roads(features: list[Feature], placer: Placer, *, count: int) -> None:
             profile=f"top={top:.2f},slope={slope:.2f}",
             ident=len(features),
         )
-        beside: Feature | None = None
-        if rng.random() < ROADSIDE_DITCH:
-            width = float(rng.uniform(1.8, 3.0))
-            offset = road.width / 2 + width / 2 + 0.5
-            side = geom.offset_curve(offset * rng.choice([-1.0, 1.0]))
-            if side.geom_type == "LineString" and not side.is_empty:
-                beside = Feature(
-                    "ditch", side, round(float(rng.uniform(0.5, 1.0)), 2), round(width, 2), "V", len(features) + 1
-                )
-        shape = road.footprint() if beside is None else road.footprint().union(beside.footprint())
-        if not placer.free(shape, gap=GAP):
-            continue
-        features.append(road)
-        if beside is not None:
-            features.append(beside)
-        placer.taken.append(shape)
-        placed += 1
+        if rng.random() >= ROADSIDE_DITCH:
+            return [road]
+        width = float(rng.uniform(1.8, 3.0))
+        offset = road.width / 2 + width / 2 + 0.5
+        side = geom.offset_curve(offset * rng.choice([-1.0, 1.0]))
+        if side.geom_type != "LineString" or side.is_empty:
+            return [road]
+        depth = round(float(rng.uniform(0.5, 1.0)), 2)
+        return [road, Feature("ditch", side, depth, round(width, 2), "V", len(features) + 1)]
+
+    _place_many(features, placer, make, count=count)
 
 
 def add_field_edges(features: list[Feature], placer: Placer, *, count: int) -> None:
     """Straight field edges: a bank rising to a terrace that falls back to the field below."""
     rng = placer.rng
     span = placer.bounds[2] - placer.bounds[0]
-    placed = 0
-    for _ in range(count * 40):
-        if placed >= count:
-            return
-        feature = Feature(
-            "edge",
-            _line(placer, float(rng.uniform(0.3, 0.6) * span), 0.0),
-            round(float(rng.uniform(*EDGE_HEIGHT)), 2),
-            round(float(rng.uniform(*EDGE_BANK)), 2),
-            profile="bank",
-            ident=len(features),
-            terrace=round(float(rng.uniform(*EDGE_TERRACE)), 1),
-        )
-        placed += _place(features, placer, feature)
+
+    def make(_placed: int) -> list[Feature]:
+        return [
+            Feature(
+                "edge",
+                _line(placer, float(rng.uniform(0.3, 0.6) * span), 0.0),
+                round(float(rng.uniform(*EDGE_HEIGHT)), 2),
+                round(float(rng.uniform(*EDGE_BANK)), 2),
+                profile="bank",
+                ident=len(features),
+                terrace=round(float(rng.uniform(*EDGE_TERRACE)), 1),
+            )
+        ]
+
+    _place_many(features, placer, make, count=count)
 
 
 def canopy_over_ditches(
