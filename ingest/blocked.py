@@ -32,7 +32,7 @@ import itertools
 import os
 import tempfile
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from multiprocessing import get_context
@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ingest.block_totals import BlockResult, Totals
 from ingest.catalog import Box, Catalog, is_catalog, open_catalog, overlaps
 from ingest.ground import classify_ground
 from ingest.ground.outliers import DENSITY_BLOCK
@@ -49,22 +50,21 @@ from ingest.ground.tiling import available_cores, one_blas_thread_here
 from ingest.noise import ground_noise
 from ingest.objects import Objects
 from ingest.objects.cover import SINGLE_RETURNS
-from ingest.pipeline import IngestOptions, flat_threshold_for, median_sigma, seen_pct, survey
+from ingest.pipeline import IngestOptions, flat_threshold_for, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
 from ingest.readers import RECORD, from_records, in_box, iter_records
+from ingest.spool import Spool
 from tdb.bbox import check_bbox, clip_bbox
 from tdb.categories import NO_DATA
 from tdb.classes import excluded
 from tdb.crs import as_crs
 from tdb.database import Database, Version, VersionInfo, check_version_name
 from tdb.errors import CRSError, InputError, Remedy, TdbIOError, TdbWarning, VersionExistsError
-from tdb.evidence import TileEvidence
 from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
-from tdb.stats import ReductionStats, VersionStats
 from tdb.threads import one_blas_thread
-from tdb.tiles import LEVELS, SUBGRID, level_bit, tile_key
+from tdb.tiles import LEVELS, SUBGRID, tile_key
 from tdb.units import to_metres, units_of
 
 BLOCK = 512.0  # m: side of a block; a multiple of the coarsest tile (16 m)
@@ -97,28 +97,12 @@ class Blocking:
 
 @dataclass(frozen=True)
 class _Block:
-    """One block's square (x0, y0, x1, y1) and the box its points are read from."""
+    """One block's square (x0, y0, x1, y1) and the box its points are read from; ``closed``: whether
+    its east and north edges are the survey's (its kept points there are its own)."""
 
     core: Box
     grown: Box
-
-
-@dataclass(frozen=True)
-class _Result:
-    """What one block contributes: its tiles per level, its kept points and its figures."""
-
-    levels: dict[int, tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]]
-    points: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]
-    reduction: ReductionStats
-    points_read: int
-    ground: int
-    excluded: int
-    noise: float
-    flat_threshold: float
-    evidence: TileEvidence
-    trees: list[Tree]
-    buildings: list[Building]
-    echo_test: bool  # whether the block's returns told double echoes apart (see ingest.objects)
+    closed: tuple[bool, bool] = (False, False)
 
 
 def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and how)
@@ -128,6 +112,7 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     version: str,
     acquired: Any = None,
     replace: bool = False,
+    resume: bool = False,
     options: IngestOptions | None = None,
     blocking: Blocking | None = None,
     progress: Progress | None = None,
@@ -135,12 +120,17 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     """Ingest a LAS/LAZ file of any size, or a catalog of tiles (a directory, a glob pattern or a
     list of files), block by block, as one version of ``db``.
 
+    Finished blocks are kept on disk (:mod:`ingest.spool`) until the version is stored; with
+    ``resume``, a run that was killed or failed continues from them.
+
     Raises
     ------
     VersionExistsError
         If ``version`` exists and ``replace`` is false (checked before any work).
     CRSError
         If the survey is not in projected coordinates in metres.
+    ResumeError
+        If ``resume`` is set and no unfinished run of the same files and settings is found.
     """
     o, b = options or IngestOptions(), blocking or Blocking()
     check_version_name(version)
@@ -152,23 +142,23 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     _check_metric(crs)
     area = _area(catalog.bounds, b.region)
     blocks = _blocks(area, b)
+    spool = Spool.beside(db, version)
+    run = _run(catalog, o, b)
+    settings = spool.resume(run) if resume else {}
+    if not resume:
+        spool.start(run)
+    done = set(spool.finished())
     # Where only a region is wanted, only it and its buffer are read (COPC files by range).
-    wanted = (
-        None
-        if b.region is None
-        else (area[0] - b.buffer, area[1] - b.buffer, area[2] + b.buffer, area[3] + b.buffer)
-    )
+    wanted = None if b.region is None else _grown(area, b.buffer)
     with tempfile.TemporaryDirectory(prefix="tdb-blocks-") as tmp:
-        files, density = _scatter(catalog, blocks, Path(tmp), report, exclude=o.exclude, box=wanted)
-        if o.density is None and density > 0:
-            o = dataclasses.replace(o, density=density)
-        if o.flat_threshold is None:
-            o = dataclasses.replace(o, flat_threshold=_pilot_threshold(files, o, crs, report))
-        results = _model(blocks, files, o, b, crs, report)
-    return _store(
+        files, density = _scatter(catalog, blocks, Path(tmp), report, exclude=o.exclude, box=wanted, skip=done)
+        o = _resolved(o, settings, density, files, crs, report)
+        spool.record({"density": o.density, "flat_threshold": o.flat_threshold})
+        _model(blocks, files, o, b, crs, report, spool=spool, skip=done)
+    stored = _store(
         db,
         version,
-        results,
+        spool,
         acquired=acquired,
         replace=replace,
         options=o,
@@ -177,6 +167,36 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
         bounds=area,
         progress=report,
     )
+    spool.remove()
+    return stored
+
+
+def _run(catalog: Catalog, o: IngestOptions, b: Blocking) -> dict[str, Any]:
+    """What makes two runs the same run, for :meth:`Spool.resume`."""
+    source = []
+    for f in catalog.files:
+        st = f.path.stat()
+        source.append([str(f.path.resolve()), st.st_size, st.st_mtime_ns])
+    return {
+        "source": source,
+        "blocks": [b.block, b.buffer, b.region],
+        "options": {k: str(v) for k, v in dataclasses.asdict(o).items()},
+    }
+
+
+def _resolved(
+    o: IngestOptions, settings: dict[str, Any], density: float, files: list[Path], crs: Any, report: Progress
+) -> IngestOptions:
+    """The options with the survey's point density and flat threshold filled in: as the
+    unfinished run measured them where resumed, else measured now."""
+    if o.density is None:
+        found = settings.get("density") or density
+        if found:
+            o = dataclasses.replace(o, density=found)
+    if o.flat_threshold is None:
+        found = settings.get("flat_threshold") or _pilot_threshold(files, o, crs, report)
+        o = dataclasses.replace(o, flat_threshold=found)
+    return o
 
 
 def _area(bounds: Box, region: Box | None) -> Box:
@@ -215,7 +235,7 @@ def _blocks(bounds: Box, b: Blocking) -> list[_Block]:
             core = (float(bx), float(by), float(bx + b.block), float(by + b.block))
             if b.region is not None:
                 core = (max(core[0], x0), max(core[1], y0), min(core[2], x1), min(core[3], y1))
-            out.append(_Block(core, _grown(core, b.buffer)))
+            out.append(_Block(core, _grown(core, b.buffer), (core[2] >= x1, core[3] >= y1)))
     return out
 
 
@@ -231,10 +251,12 @@ def _scatter(
     *,
     exclude: tuple[int, ...],
     box: Box | None = None,
+    skip: set[int] | frozenset[int] = frozenset(),
 ) -> tuple[list[Path], float]:
     """One pass over the input (or its points in ``box``): every point appended to the file of
     each block whose buffered box holds it; and the survey's point density as the ground filter
-    measures it on the points it sees (those not of the ``exclude`` classes), over the whole survey, once."""
+    measures it on the points it sees (those not of the ``exclude`` classes), over the whole survey, once.
+    The blocks of ``skip`` (finished by an earlier run) get no file."""
     files = [tmp / f"block{k}.bin" for k in range(len(blocks))]
     grown = np.array([blk.grown for blk in blocks])
     done, total = 0, catalog.points
@@ -248,6 +270,8 @@ def _scatter(
             seen += int(use.sum())
             cells.append(np.unique(tile_key(*(np.floor(rec[a][use] / DENSITY_BLOCK) for a in "xy"))))
             for k in _touched(grown, f.bounds):
+                if k in skip:
+                    continue
                 inside = in_box(rec, tuple(grown[k]))
                 if inside.any():
                     with files[k].open("ab") as fh:
@@ -264,37 +288,47 @@ def _touched(grown: NDArray[np.float64], box: Box) -> NDArray[np.intp]:
     )
 
 
-def _model(
-    blocks: list[_Block], files: list[Path], o: IngestOptions, b: Blocking, crs: Any, report: Progress
-) -> list[_Result]:
-    jobs = [(blk, path, o, crs) for blk, path in zip(blocks, files) if path.exists()]
-    report("blocks", 0, len(jobs))
+def _model(  # noqa: PLR0913 (the blocks, their points, how, and where results go)
+    blocks: list[_Block],
+    files: list[Path],
+    o: IngestOptions,
+    b: Blocking,
+    crs: Any,
+    report: Progress,
+    *,
+    spool: Spool,
+    skip: set[int],
+) -> None:
+    """Model the blocks not in ``skip``, each result kept in ``spool`` as it comes."""
+    jobs = [(k, blk, path, o, crs) for k, (blk, path) in enumerate(zip(blocks, files)) if k not in skip]
+    jobs = [j for j in jobs if j[2].exists()]
+    total = len(jobs) + len(skip)
+    report("blocks", len(skip), total)
     if b.scheduler is not None:
-        return _on_cluster(jobs, b.scheduler, report)
-    workers = min(b.workers or available_cores(), len(jobs))
-    results: list[_Result] = []
-    if workers <= 1:
-        for k, job in enumerate(jobs, start=1):
-            results += [r for r in [_one_block_args(job)] if r is not None]
-            report("blocks", k, len(jobs))
-        return results
-    # spawn: a forked child would inherit the parent's threads and locks
-    with ProcessPoolExecutor(workers, mp_context=get_context("spawn"), initializer=one_blas_thread_here) as pool:
-        for k, r in enumerate(pool.map(_one_block_args, jobs), start=1):
-            if r is not None:
-                results.append(r)
-            report("blocks", k, len(jobs))
-    return results
+        results = _on_cluster(jobs, b.scheduler)
+    elif (workers := min(b.workers or available_cores(), len(jobs))) <= 1:
+        results = map(_one_block_args, jobs)
+    else:
+        # spawn: a forked child would inherit the parent's threads and locks
+        pool = ProcessPoolExecutor(workers, mp_context=get_context("spawn"), initializer=one_blas_thread_here)
+        with pool:
+            for n, (k, r) in enumerate(pool.map(_one_block_args, jobs), start=len(skip) + 1):
+                spool.put(k, r)
+                report("blocks", n, total)
+        return
+    for n, (k, r) in enumerate(results, start=len(skip) + 1):
+        spool.put(k, r)
+        report("blocks", n, total)
 
 
 IN_FLIGHT = 2  # blocks sent per worker ahead of the results: the parent holds only these
 CONNECT_SECONDS = 20  # how long a scheduler may take to answer
 
 
-Job = tuple[_Block, Path, IngestOptions, Any]  # a block, its points' file, how, and the CRS
+Job = tuple[int, _Block, Path, IngestOptions, Any]  # a block's index, itself, its points' file, how, the CRS
 
 
-def _on_cluster(jobs: list[Job], address: str, report: Progress) -> list[_Result]:
+def _on_cluster(jobs: list[Job], address: str) -> Iterator[tuple[int, BlockResult | None]]:
     """The blocks modelled on a dask.distributed cluster, a few per worker at a time."""
     try:
         from distributed import Client, as_completed
@@ -304,25 +338,20 @@ def _on_cluster(jobs: list[Job], address: str, report: Progress) -> list[_Result
         client = Client(address, timeout=CONNECT_SECONDS)
     except OSError as exc:
         raise TdbIOError(f"{address}: no dask scheduler answers ({exc})") from None
-    results: list[_Result] = []
     with client:
         ahead = IN_FLIGHT * max(1, len(client.scheduler_info().get("workers", {})))
         pending = iter(jobs)
 
         def send(job: Job) -> Any:
-            blk, path, o, crs = job
-            return client.submit(_one_block, blk, np.fromfile(path, RECORD), o, crs, str(path), pure=False)
+            k, blk, path, o, crs = job
+            return client.submit(_one_block_at, k, blk, np.fromfile(path, RECORD), o, crs, str(path), pure=False)
 
         queue = as_completed([send(job) for job in itertools.islice(pending, ahead)])
-        for k, future in enumerate(queue, start=1):
-            r = future.result()
-            if r is not None:
-                results.append(r)
+        for future in queue:
+            yield future.result()
             nxt = next(pending, None)
             if nxt is not None:
                 queue.add(send(nxt))
-            report("blocks", k, len(jobs))
-    return results
 
 
 def _pilot_threshold(files: list[Path], o: IngestOptions, crs: Any, report: Progress) -> float:
@@ -336,12 +365,18 @@ def _pilot_threshold(files: list[Path], o: IngestOptions, crs: Any, report: Prog
     return flat_threshold_for(ground_noise(cloud.xyz[ground]))
 
 
-def _one_block_args(job: tuple[_Block, Path, IngestOptions, Any]) -> _Result | None:
-    blk, path, o, crs = job
-    return _one_block(blk, np.fromfile(path, RECORD), o, crs, str(path))
+def _one_block_args(job: Job) -> tuple[int, BlockResult | None]:
+    k, blk, path, o, crs = job
+    return k, _one_block(blk, np.fromfile(path, RECORD), o, crs, str(path))
 
 
-def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str) -> _Result | None:
+def _one_block_at(
+    k: int, blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str
+) -> tuple[int, BlockResult | None]:
+    return k, _one_block(blk, rec, o, crs, source)
+
+
+def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str) -> BlockResult | None:
     """Model one block from its points (``RECORD`` rows) and keep what lies in its own square."""
     x0, y0, x1, y1 = blk.core
     own = (rec["x"] >= x0) & (rec["x"] < x1) & (rec["y"] >= y0) & (rec["y"] < y1)
@@ -357,7 +392,11 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
     for level, t in m.levels.items():
         keep = (t.xg >= x0) & (t.xg < x1) & (t.yg >= y0) & (t.yg < y1)
         levels[level] = LevelTiles(level, t.xg[keep], t.yg[keep], t.code[keep])
-    on = (m.x >= x0) & (m.x <= x1) & (m.y >= y0) & (m.y <= y1)
+    # each kept point is one block's: the one whose half-open square holds it (closed on the
+    # survey's east and north edges); its level bits are those of the tiles on both sides, as
+    # the block's model reaches over its edges by the buffer
+    east, north = blk.closed
+    on = (m.x >= x0) & ((m.x <= x1) if east else (m.x < x1)) & (m.y >= y0) & ((m.y <= y1) if north else (m.y < y1))
     cropped = TerrainModel(levels, m.x[on], m.y[on], m.z[on], m.n[on])
     # the error of the whole block's mesh at the block's own posts: a mesh of the cropped points
     # alone would leave the posts beyond its hull out
@@ -371,7 +410,7 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
         no_data={lv: int((t.code == NO_DATA).sum()) for lv, t in levels.items()},
     )
     trees, buildings = _owned(s.objects, blk.core)
-    return _Result(
+    return BlockResult(
         levels={lv: (t.xg, t.yg, t.code) for lv, t in levels.items()},
         points=(m.x[on], m.y[on], m.z[on], m.n[on]),
         reduction=reduction,
@@ -413,26 +452,10 @@ def _crop(dtm: Raster, box: Box) -> Raster:
     return Raster(data, dtm.x0 + cols[0] * dtm.cell, dtm.y1 - rows[0] * dtm.cell, dtm.cell, dtm.crs)
 
 
-def _merge_points(
-    results: list[_Result],
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
-    """All blocks' kept points; a point on a shared edge once, with the level bits of both sides."""
-    x = np.concatenate([r.points[0] for r in results])
-    y = np.concatenate([r.points[1] for r in results])
-    z = np.concatenate([r.points[2] for r in results])
-    n = np.concatenate([r.points[3] for r in results])
-    key = np.round(np.column_stack([x, y]) * 1000).astype(np.int64)
-    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    mask = np.zeros(len(first), np.uint8)
-    np.bitwise_or.at(mask, inverse, n)
-    return x[first], y[first], z[first], mask
-
-
 def _store(  # noqa: PLR0913 (the version and what is recorded of it)
     db: Database,
     version: str,
-    results: list[_Result],
+    spool: Spool,
     *,
     acquired: Any,
     replace: bool,
@@ -442,75 +465,40 @@ def _store(  # noqa: PLR0913 (the version and what is recorded of it)
     bounds: Box,
     progress: Progress,
 ) -> Version:
-    if not results:
-        raise InputError("the survey holds no points to model")
-    if not any(r.echo_test for r in results):
+    """The finished blocks written as one version, one block at a time, in one transaction."""
+    finished = spool.finished()
+    totals = Totals()
+    info = VersionInfo(
+        acquired=acquired,
+        source=f"{len(source.files)} file(s): {source.files[0].path}" + (" …" if len(source.files) > 1 else ""),
+        crs=None if crs is None else crs.to_wkt(),
+    )
+    with db.writing(version, info=info, replace=replace) as writer:
+        progress("storing", 0, len(finished))
+        for n, k in enumerate(finished, start=1):
+            r: BlockResult | None = spool.get(k)
+            if r is not None:
+                totals.add(r)
+                writer.add(
+                    levels=r.levels,
+                    points=r.points,
+                    evidence=r.evidence,
+                    objects=(r.trees, r.buildings) if options.objects else None,
+                )
+            progress("storing", n, len(finished))
+        if not totals.blocks:
+            raise InputError("the survey holds no points to model")
+        params = {
+            "method": str(options.method),
+            "resolution": options.resolution,
+            "subgrid": SUBGRID,
+            "flat_threshold": totals.flat_threshold,
+            "density": options.density,
+            "exclude_classes": list(options.exclude),
+            "blocks": totals.blocks,
+            "finest_level": min(totals.tiles),
+        }
+        writer.describe(params=params, stats=totals.stats(bounds).to_json())
+    if not totals.echo_test:
         warnings.warn(f"{source.files[0].path}: {SINGLE_RETURNS}", TdbWarning, stacklevel=2)
-    levels = {
-        lv: tuple(np.concatenate([r.levels[lv][k] for r in results]) for k in range(3)) for lv in results[0].levels
-    }
-    posts = sum(r.reduction.dense_posts for r in results)
-    rmse = [r.reduction.rmse_m for r in results]
-    weights = [r.reduction.dense_posts for r in results]
-    known = [(e, w) for e, w in zip(rmse, weights) if e is not None]
-    points = _merge_points(results)
-    finest = min(levels)
-    kept_finest = int(((points[3] & level_bit(finest)) > 0).sum())
-    reduction = ReductionStats(
-        dense_posts=posts,
-        kept_points=len(points[0]),
-        kept_level2=kept_finest,
-        reduction_pct=round(100.0 * (1 - kept_finest / max(posts, 1)), 2),
-        rmse_m=round(float(np.sqrt(sum(e * e * w for e, w in known) / max(sum(w for _, w in known), 1))), 4)
-        if known
-        else None,
-        max_error_m=max((r.reduction.max_error_m or 0.0) for r in results),
-        tiles={lv: len(t[0]) for lv, t in levels.items()},
-        no_data={lv: sum(r.reduction.no_data.get(lv, 0) for r in results) for lv in levels},
-    )
-    read = sum(r.points_read for r in results)
-    evidence = TileEvidence(
-        *(np.concatenate([getattr(r.evidence, k) for r in results]) for k in ("xg", "yg", *TileEvidence.FIELDS))
-    )
-    noise = float(np.average([r.noise for r in results], weights=[r.points_read for r in results]))
-    thresholds = [r.flat_threshold for r in results]
-    stats = VersionStats(
-        reduction=reduction,
-        points=read,
-        ground_points=sum(r.ground for r in results),
-        excluded_points=sum(r.excluded for r in results),
-        noise_m=round(noise, 4),
-        flat_threshold_m=round(float(np.median(thresholds)), 3),
-        bounds=bounds,
-        seen_pct=seen_pct(evidence),
-        sigma_m=median_sigma(evidence),
-    )
-    params = {
-        "method": str(options.method),
-        "resolution": options.resolution,
-        "subgrid": SUBGRID,
-        "flat_threshold": float(np.median(thresholds)),
-        "density": options.density,
-        "exclude_classes": list(options.exclude),
-        "blocks": len(results),
-        "finest_level": finest,
-    }
-    return db.write_version(
-        version,
-        levels=levels,  # type: ignore[arg-type]
-        points=points,
-        evidence=evidence,
-        objects=([t for r in results for t in r.trees], [bd for r in results for bd in r.buildings])
-        if options.objects
-        else None,
-        info=VersionInfo(
-            acquired=acquired,
-            source=f"{len(source.files)} file(s): {source.files[0].path}"
-            + (" …" if len(source.files) > 1 else ""),
-            crs=None if crs is None else crs.to_wkt(),
-            params=params,
-            stats=stats,
-        ),
-        replace=replace,
-        progress=progress,
-    )
+    return db.version(version)

@@ -128,10 +128,7 @@ def points_from_blocks(
     x0, y0, x1, y1 = bbox
     parts = []
     for blob in blocks:
-        m = len(blob) // 25
-        f = np.frombuffer(blob, "<f8", count=3 * m)
-        x, y, z = f[:m], f[m : 2 * m], f[2 * m :]
-        n = np.frombuffer(blob, np.uint8, offset=24 * m)
+        x, y, z, n = _decoded(blob)
         keep = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1) & ((n & mask) > 0)
         parts.append((x[keep], y[keep], z[keep], n[keep]))
     if not parts:
@@ -157,3 +154,36 @@ def evidence_from_blocks(
         blocks, bbox, level=2, layers=fields, dtype="<f2", held=lambda r: ~np.isnan(r)
     )
     return xg, yg, [v.astype(np.float32) for v in values]
+
+
+def merge_raster_pages(old: bytes, new: bytes, *, dtype: str, layers: int, fill: Any) -> bytes:
+    """One raster page from two parts of it written apart (a page wider than the part of a
+    survey that wrote each): the tiles of ``new`` where it holds them, those of ``old`` elsewhere."""
+    a = np.frombuffer(old, dtype).reshape(layers, TILES_PER_BLOCK, TILES_PER_BLOCK)
+    b = np.frombuffer(new, dtype).reshape(layers, TILES_PER_BLOCK, TILES_PER_BLOCK)
+    held = np.isnan(b[-1]) if isinstance(fill, float) and np.isnan(fill) else b[-1] == fill
+    return np.where(held[None], a, b).tobytes()
+
+
+def merge_tile_pages(old: bytes, new: bytes) -> bytes:
+    """A code page (:func:`tile_blocks`) from two parts written apart."""
+    return merge_raster_pages(old, new, dtype="u1", layers=1, fill=ABSENT)
+
+
+def merge_evidence_pages(old: bytes, new: bytes, *, fields: int) -> bytes:
+    """An evidence page (:func:`evidence_blocks`) from two parts written apart."""
+    return merge_raster_pages(old, new, dtype="<f2", layers=fields, fill=np.nan)
+
+
+def merge_point_pages(old: bytes, new: bytes) -> bytes:
+    """A point page (:func:`point_blocks`) holding the points of both parts."""
+    x, y, z, n = (np.concatenate(p) for p in zip(*(_decoded(b) for b in (old, new))))
+    ((_, _, blob),) = point_blocks(x, y, z, n)
+    return blob
+
+
+def _decoded(blob: bytes) -> tuple[NDArray[Any], ...]:
+    """x, y, z, n of a point page."""
+    m = len(blob) // 25
+    f = np.frombuffer(blob, "<f8", count=3 * m)
+    return f[:m], f[m : 2 * m], f[2 * m :], np.frombuffer(blob, np.uint8, offset=24 * m)

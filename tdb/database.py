@@ -15,13 +15,12 @@ import unicodedata
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from itertools import chain
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from sqlalchemy import Connection, Engine, bindparam, create_engine, event, func, literal_column, select
+from sqlalchemy import Connection, Engine, create_engine, event, func, select
 from sqlalchemy.exc import DatabaseError as SADatabaseError
 from sqlalchemy.exc import IntegrityError, OperationalError
 
@@ -30,15 +29,13 @@ from tdb.bbox import Box, check_bbox, clip_bbox
 from tdb.categories import all_categories
 from tdb.errors import DatabaseError, InputError, Remedy, TdbIOError, VersionExistsError, VersionNotFoundError
 from tdb.evidence import TileEvidence
-from tdb.object_store import read_buildings, read_trees, write_objects
+from tdb.object_store import read_buildings, read_trees
 from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
 from tdb.stats import VersionStats
+from tdb.version_writer import VersionWriter, write_point_pages, write_tile_pages
 
 SQLITE_MAGIC = b"SQLite format 3\x00"
-BATCH = 50_000
-ROWS_PER_STATEMENT = 200
-MAX_PARAMETERS = 999  # SQLite's limit before 3.32
 PROBE_CHUNK = 900
 
 
@@ -143,26 +140,6 @@ def open(path: str | os.PathLike[str], *, create: bool = False, readonly: bool =
     return db
 
 
-def _execute_rows(cursor: Any, sql: str, cols: list[list[Any]]) -> None:
-    """Insert the rows given column-wise with one statement per ``ROWS_PER_STATEMENT`` rows.
-
-    ``sql`` is a compiled single-row INSERT with positional parameters; its VALUES tuple is
-    repeated, so the statement stays SQLAlchemy's (no user text reaches it)."""
-    head, _, row = sql.rpartition(" VALUES ")
-    width = len(cols)
-    per = max(1, min(ROWS_PER_STATEMENT, MAX_PARAMETERS // max(width, 1)))
-    flat = list(chain.from_iterable(zip(*cols)))
-    count = len(flat) // width if width else 0
-    whole = count - count % per
-    if whole:
-        step = per * width
-        cursor.executemany(
-            f"{head} VALUES {', '.join([row] * per)}", [flat[i : i + step] for i in range(0, whole * width, step)]
-        )
-    if count > whole:
-        cursor.execute(f"{head} VALUES {', '.join([row] * (count - whole))}", flat[whole * width :])
-
-
 DAMAGE = ("malformed", "not a database", "database corrupt")  # SQLite's words for a damaged file
 
 
@@ -264,12 +241,10 @@ class Database:
                 for level, table in schema.level_tables.items():
                     q = select(table.c.xg, table.c.yg, table.c.c).where(table.c.version == vid)
                     xg, yg, code = _columns(list(conn.execute(q)), (np.int64, np.int64, np.uint8))
-                    self._write_tile_blocks(conn, vid, level, xg, yg, code)
+                    write_tile_pages(conn, vid, level, xg, yg, code)
                 t = schema.points
                 q = select(t.c.x, t.c.y, t.c.z, t.c.n).where(t.c.version == vid)
-                self._write_point_blocks(
-                    conn, vid, *_columns(list(conn.execute(q)), (float, float, float, np.uint8))
-                )
+                write_point_pages(conn, vid, *_columns(list(conn.execute(q)), (float, float, float, np.uint8)))
             conn.execute(
                 schema.meta.update()
                 .where(schema.meta.c.key == "schema_version")
@@ -353,6 +328,32 @@ class Database:
         VersionExistsError
             If ``name`` exists and ``replace`` is false.
         """
+        meta = info or VersionInfo()
+        rows = sum(len(t[0]) for t in levels.values()) + len(points[0])
+        with self.writing(name, info=meta, replace=replace, progress=progress, rows=rows) as writer:
+            writer.add(levels=levels, points=points, evidence=evidence, objects=objects)
+            writer.describe(params=meta.params, stats=meta.stats.to_json() if meta.stats else {})
+        return self.version(name)
+
+    @contextmanager
+    def writing(
+        self,
+        name: str,
+        *,
+        info: VersionInfo | None = None,
+        replace: bool = False,
+        progress: Progress | None = None,
+        rows: int | None = None,
+    ) -> Iterator[VersionWriter]:
+        """A version written in parts (:class:`~tdb.version_writer.VersionWriter`), all in one
+        transaction: its ``info`` first (params and stats are set by the writer's ``describe``
+        once the parts are in), then each part; nothing is stored unless the block ends well.
+
+        Raises
+        ------
+        VersionExistsError
+            If ``name`` exists and ``replace`` is false.
+        """
         check_version_name(name)
         meta = info or VersionInfo()
         with self.transaction() as conn:
@@ -368,69 +369,17 @@ class Database:
                         acquired=meta.acquired,
                         source=meta.source,
                         crs=meta.crs,
-                        params=json.dumps(meta.params),
-                        stats=json.dumps(meta.stats.to_json() if meta.stats else {}, default=float),
+                        params="{}",
+                        stats="{}",
                         created=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
                     )
                 ).inserted_primary_key
             except IntegrityError:  # another ingest of the same name committed first
                 raise VersionExistsError(f"{self.name}: version {name!r} exists", remedy=Remedy.REPLACE) from None
-            vid = inserted
-            assert vid is not None
-            vid = vid[0]
-            report = _RowCount(or_silent(progress), sum(len(t[0]) for t in levels.values()) + len(points[0]))
-            for level, (xg, yg, code) in levels.items():
-                order = np.lexsort((yg, xg))  # key order: B-tree pages fill in sequence
-                xg, yg, code = xg[order], yg[order], code[order]
-                self._bulk(conn, schema.level_tables[level], vid, {"xg": xg, "yg": yg, "c": code}, report)
-                self._write_tile_blocks(conn, vid, level, xg, yg, code)
-            self._write_point_blocks(conn, vid, *points)
-            if evidence is not None:
-                self._write_evidence(conn, vid, evidence)
-            if objects is not None:
-                write_objects(conn, vid, *objects)
-            x, y, z, n = points
-            order = np.lexsort((y, x))
-            x, y, z, n = x[order], y[order], z[order], n[order]
-            self._bulk(conn, schema.points, vid, {"x": x, "y": y, "z": z, "n": n}, report)
-        return self.version(name)
-
-    def _write_tile_blocks(self, conn: Connection, vid: int, level: int, xg: Any, yg: Any, code: Any) -> None:
-        pages = blocks.tile_blocks(xg, yg, code, level=level)
-        _insert_blocks(conn, schema.tile_blocks, pages, {"version": vid, "level": level}, blob="codes")
-
-    def _write_point_blocks(self, conn: Connection, vid: int, x: Any, y: Any, z: Any, n: Any) -> None:
-        _insert_blocks(conn, schema.point_blocks, blocks.point_blocks(x, y, z, n), {"version": vid})
-
-    def _write_evidence(self, conn: Connection, vid: int, e: TileEvidence) -> None:
-        pages = blocks.evidence_blocks(e.xg, e.yg, [getattr(e, f) for f in e.FIELDS])
-        _insert_blocks(conn, schema.evidence_blocks, pages, {"version": vid})
-
-    def _bulk(
-        self, conn: Connection, table: Any, vid: int, columns: dict[str, NDArray[Any]], report: _RowCount
-    ) -> None:
-        """Batch insert of one version's rows: the statement SQLAlchemy compiles for this dialect, with
-        the version as a literal, run by the DB-API's executemany batch by batch (Python objects for
-        25 M rows at once would take gigabytes; one parameter fewer per row saves a tenth).
-
-        With positional parameters (SQLite) each statement carries many rows: SQLite spends half its
-        time per statement run rather than per row, so this doubles the rows written per second."""
-        values: dict[str, Any] = {"version": literal_column(str(int(vid))), **{k: bindparam(k) for k in columns}}
-        # inline(): no RETURNING of the literal primary key column
-        stmt = table.insert().inline().values(values).compile(dialect=conn.dialect)
-        names = list(stmt.positiontup) if stmt.positional and stmt.positiontup else list(columns)
-        total = len(next(iter(columns.values()))) if columns else 0
-        cursor = conn.connection.cursor()
-        try:
-            for start in range(0, total, BATCH):
-                cols = [columns[k][start : start + BATCH].tolist() for k in names]
-                if stmt.positional:
-                    _execute_rows(cursor, str(stmt), cols)
-                else:
-                    cursor.executemany(str(stmt), [dict(zip(names, r)) for r in zip(*cols)])
-                report.add(len(cols[0]))
-        finally:
-            cursor.close()
+            assert inserted is not None
+            writer = VersionWriter(conn, inserted[0], progress=or_silent(progress), rows=rows)
+            yield writer
+            writer.check_described()
 
     def rename_version(self, name: str, new: str) -> Version:
         """Give version ``name`` the name ``new``, in one transaction.
@@ -722,32 +671,6 @@ class Area:
     n: NDArray[np.uint8]
     trees: list[Tree] = field(default_factory=list)
     buildings: list[Building] = field(default_factory=list)
-
-
-class _RowCount:
-    """Rows written so far, told to a :class:`~tdb.progress.Progress` as ``("database", rows, total)``."""
-
-    def __init__(self, progress: Progress, total: int) -> None:
-        self.progress, self.total, self.done = progress, total, 0
-        progress("database", 0, total)
-
-    def add(self, rows: int) -> None:
-        self.done += rows
-        self.progress("database", self.done, self.total)
-
-
-def _insert_blocks(
-    conn: Connection,
-    table: Any,
-    pages: Iterator[tuple[int, int, bytes]],
-    key: dict[str, int],
-    *,
-    blob: str = "data",
-) -> None:
-    """Insert block pages (bx, by, blob) with the columns ``key`` into ``table``."""
-    rows = [{**key, "bx": bx, "by": by, blob: data} for bx, by, data in pages]
-    if rows:
-        conn.execute(table.insert(), rows)
 
 
 def _widened(bounds: Box | None, by: float) -> Box | None:

@@ -67,6 +67,10 @@ class VersionNotFoundError(DatabaseError, KeyError):
         return str(self.args[0]) if self.args else ""
 
 
+class ResumeError(TdbError):
+    """An interrupted ingest cannot be resumed: none was left, or it was another run."""
+
+
 class QueryError(TdbError, ValueError):
     """A query cannot be parsed or run; ``line`` and ``column`` locate parse errors."""
 

@@ -45,6 +45,12 @@ def _date(_ctx: click.Context, _param: click.Parameter, value: str | None) -> dt
     help="Height range (m) below which a tile is flat [default: 5 × the measured ground noise, at least 0.1 m].",
 )
 @click.option("--replace", is_flag=True, help="Replace an existing version of the same name.")
+@click.option(
+    "--resume",
+    is_flag=True,
+    help="Continue a blocked ingest that was killed or failed, from the blocks it finished "
+    "(the same files, version and options).",
+)
 @click.option("--no-objects", is_flag=True, help="Do not find and store trees and buildings.")
 @bbox_option()
 @click.option("--assume-metres", is_flag=True, help="Accept a file with no CRS as metres.")
@@ -59,6 +65,7 @@ def command(
     resolution: float,
     flat_threshold: float | None,
     replace: bool,
+    resume: bool,
     no_objects: bool,
     assume_metres: bool,
     block: float | None,
@@ -72,7 +79,8 @@ def command(
     """Build the terrain model of a survey and store it: ground filter, dense model,
     tile categories at 2/4/8/16 m, reduction, trees and buildings, in one transaction.
 
-    A failure or interruption leaves the database as it was.
+    A failure or interruption leaves the database as it was. A blocked ingest keeps its
+    finished blocks beside the database until the version is stored: --resume continues it.
 
     CLOUD is a LAS/LAZ or text file, or a catalog of LAS/LAZ tiles: a directory or a quoted
     glob pattern. With --bbox only that area is modelled (block by block), and only its points
@@ -84,6 +92,7 @@ def command(
       tdb ingest tiles/ --db county.tdb --version 2024            # a directory of tiles, block by block
       tdb ingest 'tiles/*.laz' --db county.tdb --version 2024 --block 1024 --workers 2
       tdb ingest tiles/ --db county.tdb --version 2024 --scheduler tcp://10.0.0.5:8786
+      tdb ingest tiles/ --db county.tdb --version 2024 --resume   # after a kill, from its finished blocks
       tdb ingest survey_2024.laz --db park.tdb --version 2024 --replace
       tdb ingest lidarhd.laz --db ign.tdb --version 2023 --exclude-classes 7,18,65
       tdb ingest county.copc.laz --db town.tdb --version 2024 --bbox 500000,5500000,501000,5501000
@@ -104,7 +113,7 @@ def command(
         exclude=exclude,
         objects=not no_objects,
     )
-    blocked = block is not None or scheduler is not None or bbox is not None or is_catalog(cloud)
+    blocked = resume or block is not None or scheduler is not None or bbox is not None or is_catalog(cloud)
     with tdb.open(db_path, create=True) as db, Bars(unit="step") as bars:
         if blocked:
             blocking = Blocking(
@@ -116,6 +125,7 @@ def command(
                 version=version,
                 acquired=date,
                 replace=replace,
+                resume=resume,
                 options=options,
                 blocking=blocking,
                 progress=bars,
