@@ -41,7 +41,7 @@ QUERIES = 10
 class Part:
     """Everything one version holds, to be written again at an offset."""
 
-    levels: dict[int, tuple[Any, Any, Any]]
+    levels: dict[int, tuple[Any, ...]]
     points: tuple[Any, Any, Any, Any]
     evidence: TileEvidence
     trees: list[Tree]
