@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from tdb.errors import InputError
 from tdb.raster import MAX_CELLS, Raster
 from tdb.rasterise import rasterise
-from tdb.tin import triangulate
+from tdb.tin import delaunay_mesh
 
 DEFAULT_RESOLUTION = 0.5
 
@@ -53,10 +53,10 @@ def dense_model(
     if resolution <= 0:
         raise InputError(f"resolution must be positive, got {resolution}")
     xyz = lowest_per_position(np.asarray(ground_xyz, float))
-    tri = triangulate(xyz[:, :2])
     if bounds is None:
         lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
         bounds = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+    xyz, faces = delaunay_mesh(xyz)
     # Posts (cell centres) sit on whole multiples of the resolution, so the 2 m tile
     # sub-grid nodes are posts and grids of two surveys line up exactly.
     first_x = np.floor(bounds[0] / resolution) * resolution
@@ -70,13 +70,13 @@ def dense_model(
             f"a {resolution} m grid over this extent needs {rows * cols:,} cells; use a coarser resolution"
         )
     raster = Raster(np.full((rows, cols), np.nan), float(x0), float(y0 + rows * resolution), resolution, crs)
-    faces = tri.simplices[~_long_facets(tri, xyz, max_edge)]  # no guess across a big gap
+    faces = faces[~_long_facets(faces, xyz, max_edge)]  # no guess across a big gap
     return replace(raster, data=rasterise(xyz[:, :2], xyz[:, 2], faces, raster.posts()))
 
 
-def _long_facets(tri: Any, xyz: NDArray[np.float64], max_edge: float | None) -> NDArray[np.bool_]:
+def _long_facets(faces: NDArray[np.intp], xyz: NDArray[np.float64], max_edge: float | None) -> NDArray[np.bool_]:
     if max_edge is None:
-        return np.zeros(len(tri.simplices), bool)
-    v = xyz[tri.simplices, :2]
+        return np.zeros(len(faces), bool)
+    v = xyz[faces, :2]
     edges = np.stack([v[:, 1] - v[:, 0], v[:, 2] - v[:, 1], v[:, 0] - v[:, 2]], axis=1)
     return np.linalg.norm(edges, axis=2).max(axis=1) > max_edge

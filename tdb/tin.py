@@ -57,6 +57,40 @@ def triangulate(xy: NDArray[np.float64]) -> Tin:
     return Tin(tri, origin, transforms(local, np.asarray(tri.simplices, np.intp)))
 
 
+SNAP = 1e-4  # m: positions closer than this are one vertex (the lower kept)
+
+
+def delaunay_mesh(xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """Vertices (M, 3) and triangles (K, 3, indices into the vertices) of the Delaunay
+    triangulation of ``xyz``'s plan positions; of positions within ``SNAP`` of each other the
+    lowest is kept.
+
+    Built by startinpy's incremental triangulation, the points inserted along a Z-order curve
+    (each insertion's walk starts next to the last): for a mesh alone (no point location) it is
+    several times faster than Qhull, which lifts the points onto a paraboloid and builds a 3-D hull.
+
+    Raises
+    ------
+    DegenerateInputError
+        For fewer than three points, or points on one line.
+    """
+    import startinpy
+
+    xyz = np.asarray(xyz, np.float64)
+    if len(xyz) < 3:
+        raise DegenerateInputError(f"cannot triangulate {len(xyz)} points")
+    origin = np.r_[np.floor(xyz[:, :2].min(axis=0)), 0.0]
+    local = (xyz - origin)[morton_order(xyz[:, :2])]
+    dt = startinpy.DT()
+    dt.snap_tolerance = SNAP
+    dt.duplicates_handling = "Lowest"
+    dt.insert(local, insertionstrategy="AsIs")
+    faces = np.asarray(dt.triangles, np.intp) - 1  # startinpy's vertex 0 is the one at infinity
+    if len(faces) == 0:
+        raise DegenerateInputError(f"cannot triangulate {len(xyz)} points: they lie on one line")
+    return np.asarray(dt.points, np.float64)[1:] + origin, faces
+
+
 def transforms(xy: NDArray[np.float64], simplices: NDArray[np.intp]) -> NDArray[np.float64]:
     """Barycentric transforms (K, 3, 2) of triangles, in :class:`scipy.spatial.Delaunay`'s layout:
     ``T = t[:, :2]`` and ``r = t[:, 2]`` give the first two barycentrics as ``T @ (p - r)``.

@@ -57,3 +57,38 @@ def test_no_faces_and_faces_off_the_grid_leave_it_empty():
     grid = PostGrid(10.0, 20.0, 1.0, 5, 5)
     assert np.isnan(rasterise(xy, np.zeros(3), np.zeros((0, 3), np.intp), grid)).all()
     assert np.isnan(rasterise(xy, np.zeros(3), np.array([[0, 1, 2]]), grid)).all()
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(3, 400), st.integers(0, 10_000))
+def test_the_incremental_mesh_is_qhulls_delaunay_triangulation(n, seed):
+    """startinpy's mesh (the dense model's) gives the surface Qhull's triangulation gives."""
+    from tdb.tin import delaunay_mesh
+
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 40, (n, 2)) + np.array([500_000.0, 5_000_000.0])
+    z = rng.normal(100, 5, n)
+    grid = PostGrid(500_000.0, 5_000_040.0, 0.5, 81, 81)
+    _, ref = _located(xy, z, grid)
+    verts, faces = delaunay_mesh(np.column_stack([xy, z]))
+    assert len(verts) == n and faces.shape == (2 * n - 2 - len(triangulate(xy).qhull.convex_hull), 3)
+    out = rasterise(verts[:, :2], verts[:, 2], faces, grid)
+    both = ~np.isnan(ref) & ~np.isnan(out)
+    np.testing.assert_allclose(out[both], ref[both], atol=1e-8)
+    assert (np.isnan(ref) != np.isnan(out)).sum() <= max(2, 0.01 * (~np.isnan(ref)).sum())
+
+
+def test_the_incremental_mesh_keeps_the_lowest_of_one_position_and_refuses_a_line():
+    import pytest
+
+    from tdb.errors import DegenerateInputError
+    from tdb.tin import delaunay_mesh
+
+    xyz = np.array([[0.0, 0.0, 5.0], [1.0, 0.0, 1.0], [0.0, 1.0, 2.0], [1.0, 0.00001, 0.5], [1.0, 1.0, 3.0]])
+    verts, faces = delaunay_mesh(xyz)
+    assert len(verts) == 4 and len(faces) == 2
+    assert verts[np.argmin(np.hypot(verts[:, 0] - 1, verts[:, 1])), 2] == 0.5
+    with pytest.raises(DegenerateInputError):
+        delaunay_mesh(np.array([[0.0, 0.0, 1.0], [1.0, 1.0, 1.0], [2.0, 2.0, 1.0]]))
+    with pytest.raises(DegenerateInputError):
+        delaunay_mesh(np.zeros((2, 3)))
