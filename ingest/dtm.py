@@ -78,5 +78,8 @@ def _long_facets(faces: NDArray[np.intp], xyz: NDArray[np.float64], max_edge: fl
     if max_edge is None:
         return np.zeros(len(faces), bool)
     v = xyz[faces, :2]
-    edges = np.stack([v[:, 1] - v[:, 0], v[:, 2] - v[:, 1], v[:, 0] - v[:, 2]], axis=1)
-    return np.linalg.norm(edges, axis=2).max(axis=1) > max_edge
+    longest = np.zeros(len(faces))
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        d = v[:, b] - v[:, a]
+        np.maximum(longest, d[:, 0] ** 2 + d[:, 1] ** 2, out=longest)
+    return longest > max_edge**2
