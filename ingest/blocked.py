@@ -151,10 +151,12 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     # Where only a region is wanted, only it and its buffer are read (COPC files by range).
     wanted = None if b.region is None else _grown(area, b.buffer)
     with tempfile.TemporaryDirectory(prefix="tdb-blocks-") as tmp:
-        files, density = _scatter(catalog, blocks, Path(tmp), report, exclude=o.exclude, box=wanted, skip=done)
+        files, density, own = _scatter(
+            catalog, blocks, Path(tmp), report, exclude=o.exclude, box=wanted, skip=done
+        )
         o = _resolved(o, settings, density, files, crs, report)
         spool.record({"density": o.density, "flat_threshold": o.flat_threshold})
-        _model(blocks, files, o, b, crs, report, spool=spool, skip=done)
+        _model(blocks, files, o, b, crs, Counted(report, own), spool=spool, skip=done)
     stored = _store(
         db,
         version,
@@ -252,12 +254,14 @@ def _scatter(
     exclude: tuple[int, ...],
     box: Box | None = None,
     skip: set[int] | frozenset[int] = frozenset(),
-) -> tuple[list[Path], float]:
+) -> tuple[list[Path], float, NDArray[np.int64]]:
     """One pass over the input (or its points in ``box``): every point appended to the file of
-    each block whose buffered box holds it; and the survey's point density as the ground filter
-    measures it on the points it sees (those not of the ``exclude`` classes), over the whole survey, once.
+    each block whose buffered box holds it; the survey's point density as the ground filter
+    measures it on the points it sees (those not of the ``exclude`` classes), over the whole survey,
+    once; and how many points each block owns (in its square, for the progress of the modelling).
     The blocks of ``skip`` (finished by an earlier run) get no file."""
     files = [tmp / f"block{k}.bin" for k in range(len(blocks))]
+    own = np.zeros(len(blocks), np.int64)
     grown = np.array([blk.grown for blk in blocks])
     done, total = 0, catalog.points
     seen, cells = 0, []
@@ -274,12 +278,23 @@ def _scatter(
                     continue
                 inside = in_box(rec, tuple(grown[k]))
                 if inside.any():
+                    part = rec[inside]
+                    x0, y0, x1, y1 = blocks[k].core
+                    own[k] += int(
+                        ((part["x"] >= x0) & (part["x"] < x1) & (part["y"] >= y0) & (part["y"] < y1)).sum()
+                    )
                     with files[k].open("ab") as fh:
-                        rec[inside].tofile(fh)
+                        part.tofile(fh)
             done += len(rec)
             report("reading", done, total)
     occupied = len(np.unique(np.concatenate(cells))) * DENSITY_BLOCK**2 if cells else 0.0
-    return files, seen / occupied if occupied else 0.0
+    return files, seen / occupied if occupied else 0.0, own
+
+
+def _in_square(rec: NDArray[Any], core: Box) -> int:
+    """How many of ``rec`` lie in the half-open square ``core``."""
+    x, y = rec["x"], rec["y"]
+    return int(((x >= core[0]) & (x < core[2]) & (y >= core[1]) & (y < core[3])).sum())
 
 
 def _touched(grown: NDArray[np.float64], box: Box) -> NDArray[np.intp]:
@@ -294,7 +309,7 @@ def _model(  # noqa: PLR0913 (the blocks, their points, how, and where results g
     o: IngestOptions,
     b: Blocking,
     crs: Any,
-    report: Progress,
+    report: Counted,
     *,
     spool: Spool,
     skip: set[int],
@@ -302,8 +317,7 @@ def _model(  # noqa: PLR0913 (the blocks, their points, how, and where results g
     """Model the blocks not in ``skip``, each result kept in ``spool`` as it comes."""
     jobs = [(k, blk, path, o, crs) for k, (blk, path) in enumerate(zip(blocks, files)) if k not in skip]
     jobs = [j for j in jobs if j[2].exists()]
-    total = len(jobs) + len(skip)
-    report("blocks", len(skip), total)
+    report.start([j[0] for j in jobs])
     if b.scheduler is not None:
         results = _on_cluster(jobs, b.scheduler)
     elif (workers := min(b.workers or available_cores(), len(jobs))) <= 1:
@@ -312,13 +326,31 @@ def _model(  # noqa: PLR0913 (the blocks, their points, how, and where results g
         # spawn: a forked child would inherit the parent's threads and locks
         pool = ProcessPoolExecutor(workers, mp_context=get_context("spawn"), initializer=one_blas_thread_here)
         with pool:
-            for n, (k, r) in enumerate(pool.map(_one_block_args, jobs), start=len(skip) + 1):
+            for k, r in pool.map(_one_block_args, jobs):
                 spool.put(k, r)
-                report("blocks", n, total)
+                report.finished(k)
         return
-    for n, (k, r) in enumerate(results, start=len(skip) + 1):
+    for k, r in results:
         spool.put(k, r)
-        report("blocks", n, total)
+        report.finished(k)
+
+
+class Counted:
+    """The modelling's progress in the survey's points (those the blocks own), so that a bar
+    shows points per second and the time left: ``("modelling points", done, total)``."""
+
+    STEP = "modelling points"
+
+    def __init__(self, progress: Progress, own: NDArray[np.int64]) -> None:
+        self.progress, self.own, self.done, self.total = progress, own, 0, 0
+
+    def start(self, blocks: list[int]) -> None:
+        self.total = int(self.own[blocks].sum())
+        self.progress(self.STEP, 0, self.total)
+
+    def finished(self, k: int) -> None:
+        self.done += int(self.own[k])
+        self.progress(self.STEP, self.done, self.total)
 
 
 IN_FLIGHT = 2  # blocks sent per worker ahead of the results: the parent holds only these

@@ -169,9 +169,10 @@ def test_blocks_size_their_outlier_test_to_the_whole_survey(scene_file, tmp_path
     from tdb.classes import NOISE, excluded
 
     catalog = open_catalog([scene_file])
-    _, density = _scatter(
+    _, density, own = _scatter(
         catalog, _blocks(catalog.bounds, Blocking(block=96)), tmp_path, lambda *a: None, exclude=NOISE
     )
+    assert own.sum() == catalog.points  # every point in one block's own square
     cloud = read(scene_file)
     seen = ~excluded(cloud.classification, NOISE)
     assert density == pytest.approx(point_density(cloud.xyz[seen, :2]), rel=1e-12)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -90,6 +92,11 @@ def ingested(tmp_path_factory):
     db = tmp / "a.tdb"
     r = runner.invoke(main, ["ingest", str(src), "--db", str(db), "--version", "v1", "--date", "2021-05-01"])
     assert r.exit_code == 0, r.output
+    # the summary: points, area, time and memory
+    from ingest.readers import read
+
+    summary = rf"^{len(read(src)):,} points, 0\.01 km² in [0-9.,]+ s \([0-9,]+ points/s\), peak memory"
+    assert re.search(summary, r.output, re.M), r.output
     return src, db
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import time
 from pathlib import Path
 
 import click
@@ -18,6 +19,18 @@ def _date(_ctx: click.Context, _param: click.Parameter, value: str | None) -> dt
         return dt.date.fromisoformat(value)
     except ValueError:
         raise click.BadParameter(f"{value!r} is not a date like 2024-05-31") from None
+
+
+def _summary(points: int, bounds: tuple[float, float, float, float] | None, seconds: float) -> str:
+    """Points, area, time and peak memory (this process's, and the largest worker's) of an ingest."""
+    import resource
+
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    workers = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    km2 = (bounds[2] - bounds[0]) * (bounds[3] - bounds[1]) / 1e6 if bounds else 0.0
+    memory = f"peak memory {own:,.0f} MiB" + (f", {workers:,.0f} MiB per worker" if workers else "")
+    rate = points / max(seconds, 1e-9)
+    return f"{points:,} points, {km2:,.2f} km² in {seconds:,.1f} s ({rate:,.0f} points/s), {memory}"
 
 
 @click.command("ingest")
@@ -113,6 +126,7 @@ def command(
         exclude=exclude,
         objects=not no_objects,
     )
+    started = time.perf_counter()
     blocked = resume or block is not None or scheduler is not None or bbox is not None or is_catalog(cloud)
     with tdb.open(db_path, create=True) as db, Bars(unit="step") as bars:
         if blocked:
@@ -133,6 +147,7 @@ def command(
         else:
             v = ingest(cloud, db, version=version, acquired=date, replace=replace, options=options, progress=bars)
     r = v.stats.reduction
+    click.echo(_summary(v.stats.points, v.stats.bounds, time.perf_counter() - started))
     click.echo(
         f"version {v.name!r} in {db_path}: {r.tiles.get(2, 0):,} tiles of 2 m, {r.kept_points:,} points kept "
         f"of {r.dense_posts:,} posts ({r.reduction_pct} % removed, RMSE {r.rmse_m} m)"

@@ -12,7 +12,7 @@ from tqdm import tqdm
 
 from tdb.errors import TdbWarning
 
-BAR = "{desc} {bar} {n_fmt}/{total_fmt} [{elapsed}]"
+BAR = "{desc} {bar} {n_fmt}/{total_fmt} [{elapsed}<{remaining}, {rate_fmt}]"
 COUNT = "{desc} {n_fmt} [{elapsed}]"  # a step whose size is not known
 
 
@@ -37,6 +37,7 @@ class Bars:
                 leave=self.leave,
                 disable=None,
                 bar_format=BAR if total else COUNT,
+                unit_scale=True,
             )
         if total and self._bar.total != total:
             self._bar.total = total
