@@ -1,7 +1,8 @@
 """Ingest of a large file whole and block by block: speed, memory, and whether the two agree.
 
 One process per run, so that each run's peak memory is its own (a blocked run's workers
-counted apart). The blocked run is compared with the whole one tile by tile at every level,
+counted apart). The blocked run is timed with one worker per core and with one worker (the
+scaling). The blocked run is compared with the whole one tile by tile at every level,
 once with the flat threshold measured its own way (from the fullest block) and once with the
 whole run's, which isolates what blocking itself changes.
     python -m benchmarks.blocked_ingest [--file isprs/FSite5_orig-utm.laz] [--block 512]
@@ -41,7 +42,8 @@ def _run(kind: str, src: str, db_path: str, block: float, threshold: float | Non
 
         read(src)
     else:
-        ingest_blocked(src, db, version=kind, options=options, blocking=Blocking(block=block))
+        workers = 1 if kind == "blocks_one_worker" else None  # None: one per core
+        ingest_blocked(src, db, version=kind, options=options, blocking=Blocking(block=block, workers=workers))
     seconds = time.perf_counter() - t0
     own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     workers = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
@@ -85,6 +87,7 @@ def main() -> None:
         db = tdb.open(db_path)
         whole = db.version("whole")
         runs["blocks"] = child("blocks", db_path)
+        runs["blocks_one_worker"] = child("blocks_one_worker", db_path)
         runs["blocks_same_threshold"] = child("blocks_same_threshold", db_path, whole.params["flat_threshold"])
         db = tdb.open(db_path)
         b = whole.stats.bounds or (0.0, 0.0, 0.0, 0.0)
@@ -99,6 +102,7 @@ def main() -> None:
             "km2": km2,
             "block_m": args.block,
             "blocks": db.version("blocks").params.get("blocks"),
+            "speedup_all_cores": runs["blocks_one_worker"]["seconds"] / runs["blocks"]["seconds"],
             "runs": runs,
             "agreement": _agreement(db, "whole", "blocks"),
             "agreement_same_threshold": _agreement(db, "whole", "blocks_same_threshold"),

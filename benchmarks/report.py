@@ -306,6 +306,7 @@ def blocked_section(out: list[str]) -> None:
         "whole": "`tdb ingest` whole",
         "blocks": f"blocked, {doc['block_m']:.0f} m blocks ({doc['blocks']}), 64 m buffer",
         "blocks_same_threshold": "blocked, the whole run's flat threshold",
+        "blocks_one_worker": "blocked, one worker",
     }
     out += [
         "## Ingest of a large file whole and block by block",
@@ -317,6 +318,8 @@ def blocked_section(out: list[str]) -> None:
         "|---|---|---|---|---|",
     ]
     for key, label in names.items():
+        if key not in runs:
+            continue
         r = runs[key]
         worker = f" ({r['worker_peak_rss_mib']:.0f})" if r.get("worker_peak_rss_mib") else ""
         out.append(
@@ -337,7 +340,60 @@ def blocked_section(out: list[str]) -> None:
             + " | ".join(f"{a[f'same_{lv}m_pct']:.2f} %" for lv in (2, 4, 8, 16))
             + f" | {a['kept_2m_points_ratio']:.3f} × |"
         )
-    out += ["", f"Reduction RMSE: whole {doc['rmse_m']['whole']} m, blocked {doc['rmse_m']['blocks']} m.", ""]
+    out += ["", f"Reduction RMSE: whole {doc['rmse_m']['whole']} m, blocked {doc['rmse_m']['blocks']} m."]
+    if "speedup_all_cores" in doc:
+        out.append(
+            f"One worker per core against one worker: **{doc['speedup_all_cores']:.2f} ×** "
+            "(target ≥ 1.8 × on 2 cores)."
+        )
+    out.append("")
+
+
+def large_area_section(out: list[str]) -> None:
+    doc = _load("large_area")
+    if not doc:
+        return
+    out += [
+        "## A large area with two workers",
+        "",
+        f"`python -m benchmarks.large_area`: a catalog of {doc['tiles'].replace('x', ' × ')} synthetic 1 km "
+        f"tiles at {doc['density']:g} pulses/m² ({doc['points']:,} points, {doc['km2']:.1f} km²), "
+        f"`ingest_blocked` with {doc['workers']} workers. Machine: {_machine(doc)}.",
+        "",
+        "| seconds | points/s | s per km² | peak RSS MiB, parent | peak RSS MiB, largest worker | database MiB |",
+        "|---|---|---|---|---|---|",
+        f"| {doc['seconds']:,.0f} | {doc['points_per_s']:,.0f} | {doc['s_per_km2']:.1f} | "
+        f"{doc['parent_peak_rss_mib']:,.0f} | {doc['worker_peak_rss_mib']:,.0f} | {doc['file_mib']:,.0f} |",
+        "",
+        "Targets: peak RSS per worker ≤ 1.5 GB whatever the input size; ≥ 1 M points/s on one core.",
+        "",
+    ]
+
+
+def big_db_section(out: list[str]) -> None:
+    docs = [d for d in (_load("big_db"), _load("big_db_postgresql")) if d]
+    if not docs:
+        return
+    out += [
+        "## Queries on a database of more than 1,000 km²",
+        "",
+        "`python -m benchmarks.big_db`: the 1 km² synthetic pair of `changes_synth` ingested once and "
+        "written 32 × 32 times side by side (1024 m apart) through the version writer; each query over "
+        f"{len(docs[0]['aoi_ms'])} boxes of 1 km² placed at random, medians (and the slowest).",
+        "",
+        "| backend | area km² | 2 m tiles per version | database MiB | 1 km² `aoi` ms (target ≤ 20) "
+        "| ditch query over 1 km² s (≤ 0.3) | diff over 1 km² s (≤ 0.5) | machine |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for d in docs:
+        size = f"{d['file_mib']:,.0f}" if d.get("file_mib") else "–"
+        out.append(
+            f"| {d['backend']} | {d['area_km2']:,.0f} | {d['rows_2m']:,} | {size} | "
+            f"{d['aoi_ms_median']:.0f} ({max(d['aoi_ms']):.0f}) | "
+            f"{d['ditch_s_median']:.2f} ({max(d['ditch_s']):.2f}) | "
+            f"{d['diff_s_median']:.2f} ({max(d['diff_s']):.2f}) | {_machine(d)} |"
+        )
+    out.append("")
 
 
 def categorise_section(out: list[str]) -> None:
@@ -604,6 +660,8 @@ def main() -> None:
         coregister_section,
         peers_section,
         blocked_section,
+        large_area_section,
+        big_db_section,
         copc_section,
     )
     for section in sections:
