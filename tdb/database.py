@@ -11,6 +11,7 @@ from __future__ import annotations
 import datetime as dt
 import json
 import os
+import re
 import unicodedata
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -21,8 +22,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from sqlalchemy import Connection, Engine, create_engine, event, func, select
+from sqlalchemy.exc import ArgumentError, IntegrityError, NoSuchModuleError, OperationalError
 from sqlalchemy.exc import DatabaseError as SADatabaseError
-from sqlalchemy.exc import IntegrityError, OperationalError
 
 from tdb import blocks, schema
 from tdb.bbox import Box, check_bbox, clip_bbox
@@ -130,12 +131,19 @@ def open(path: str | os.PathLike[str], *, create: bool = False, readonly: bool =
         if readonly and p.exists() and not writable(p):
             # no -wal or -shm can be made beside a file on read-only media: read it as it stands
             url = f"sqlite:///{p.resolve().as_uri()}?mode=ro&immutable=1&uri=true"
-    engine = create_engine(url)
+    try:
+        engine = create_engine(url)
+    except (ArgumentError, NoSuchModuleError) as exc:
+        raise DatabaseError(f"{_masked(text)}: not a database URL tdb can open ({_first_line(exc)})") from None
+    except ImportError as exc:  # the dialect's driver is not installed
+        raise DatabaseError(f"{_masked(text)}: its driver is not installed ({_first_line(exc)})") from None
     if engine.dialect.name == "sqlite":
         # read only, the connection refuses writes and leaves the journal mode as it finds it
         event.listen(engine, "connect", _read_only_pragmas if readonly else _sqlite_pragmas)
-    event.listen(engine, "handle_error", _damaged(text))
-    db = Database(engine, text, readonly=readonly)
+    # a URL's password is never shown (messages name the database)
+    shown = engine.url.render_as_string(hide_password=True) if "://" in text else text
+    event.listen(engine, "handle_error", _damaged(shown))
+    db = Database(engine, shown, readonly=readonly)
     db._prepare(create=create)
     return db
 
@@ -143,15 +151,33 @@ def open(path: str | os.PathLike[str], *, create: bool = False, readonly: bool =
 DAMAGE = ("malformed", "not a database", "database corrupt")  # SQLite's words for a damaged file
 
 
+NO_RIGHTS = "42501"  # SQLSTATE insufficient_privilege (PostgreSQL)
+
+
 def _damaged(name: str) -> Any:
-    """An engine hook that names a damaged file as such, whichever query meets the damage."""
+    """An engine hook that names a damaged file as such, and missing rights as such, whichever
+    query meets them."""
 
     def hook(context: Any) -> None:
-        message = str(getattr(context, "original_exception", "") or "")
+        original = getattr(context, "original_exception", None)
+        message = _first_line(original)
         if any(word in message for word in DAMAGE):
-            raise DatabaseError(f"{name}: the database file is damaged ({message.splitlines()[0]})") from None
+            raise DatabaseError(f"{name}: the database file is damaged ({message})") from None
+        if getattr(original, "sqlstate", None) == NO_RIGHTS:
+            raise DatabaseError(f"{name}: this user lacks the rights ({message})") from None
 
     return hook
+
+
+def _masked(url: str) -> str:
+    """``url`` with its password (``scheme://user:password@host``) hidden."""
+    return re.sub(r"(://[^:/@]*:)[^@]*@", r"\1***@", url)
+
+
+def _first_line(exc: object) -> str:
+    """A driver's message in one line (PostgreSQL's add hints on further lines)."""
+    lines = str(exc or "").strip().splitlines()
+    return lines[0].strip() if lines else type(exc).__name__
 
 
 def _read_only_pragmas(dbapi_conn: Any, _record: Any) -> None:
@@ -200,16 +226,16 @@ class Database:
         except IntegrityError as exc:
             raise DatabaseError(f"{self.name}: constraint violated ({exc.orig})") from None
         except (OperationalError, SADatabaseError) as exc:
-            raise DatabaseError(f"{self.name}: {exc.orig}") from None
+            raise DatabaseError(f"{self.name}: {_first_line(exc.orig)}") from None
         except self.engine.dialect.dbapi.Error as exc:  # type: ignore[union-attr]  # raw executemany
-            raise DatabaseError(f"{self.name}: {exc}") from None
+            raise DatabaseError(f"{self.name}: {_first_line(exc)}") from None
 
     def _prepare(self, *, create: bool) -> None:
         try:
             with self.engine.connect() as conn:
                 names = set(self.engine.dialect.get_table_names(conn))
         except SADatabaseError as exc:
-            raise DatabaseError(f"{self.name}: not a readable database ({exc.orig})") from None
+            raise DatabaseError(f"{self.name}: not a readable database ({_first_line(exc.orig)})") from None
         if not names:
             if not create:
                 raise DatabaseError(f"{self.name}: empty database, not a tdb database")
@@ -229,6 +255,17 @@ class Database:
                 self._tables = names
             else:
                 self._upgrade(found)
+        if not self.readonly:
+            self._check_rights()
+
+    def _check_rights(self) -> None:
+        """On a server, that this user may write versions: said at open, not after an hour's ingest."""
+        if self.engine.dialect.name != "postgresql":
+            return
+        with self.engine.connect() as conn:
+            may = conn.exec_driver_sql("SELECT has_table_privilege('versions', 'INSERT')").scalar()
+        if not may:
+            raise DatabaseError(f"{self.name}: this user lacks the rights to write (no INSERT on its tables)")
 
     def _upgrade(self, found: int) -> None:
         """Add the tables a newer schema has: from 1, the block tables, filled from the rows of every

@@ -185,3 +185,25 @@ def test_kill_during_write_leaves_database_as_it_was(tmp_path):
     assert con.execute("pragma integrity_check").fetchone()[0] == "ok"
     assert con.execute("select count(*) from c2 where version != 1").fetchone()[0] == 0
     con.close()
+
+
+@pytest.mark.parametrize(
+    ("url", "says"),
+    [
+        ("postgresql+psycopg://someone:secret@127.0.0.1:1/terrain", "Connection refused"),
+        ("postgresql+nosuchdriver://someone:secret@host/terrain", "not a database URL tdb can open"),
+        ("postgres://", "not a database URL tdb can open"),
+    ],
+)
+def test_a_database_url_that_cannot_be_opened_is_one_line_without_its_password(url, says):
+    from click.testing import CliRunner
+
+    from tdb.cli import main
+
+    if "psycopg" in url:
+        pytest.importorskip("psycopg")
+    with pytest.raises(DatabaseError, match=says) as caught:
+        tdb.open(url)
+    assert "secret" not in str(caught.value) and "\n" not in str(caught.value)
+    r = CliRunner().invoke(main, ["info", url])
+    assert r.exit_code == 1 and len(r.output.strip().splitlines()) == 1 and "secret" not in r.output, r.output

@@ -91,3 +91,39 @@ def test_blocked_ingest_and_its_resume_on_postgresql(pg, tmp_path, monkeypatch):
             zip(b.x.tolist(), b.y.tolist(), b.z.tolist())
         ), level
     assert pg.version("b").stats == lite.version("b").stats
+
+
+def test_the_command_line_takes_a_postgresql_url_and_says_what_is_wrong_in_one_line(pg, tmp_path):
+    """The URL reaches the database as written (a path type would fold its //); a user without
+    rights is told so at open, before any work, in one line."""
+    import sqlalchemy
+    from click.testing import CliRunner
+
+    from ingest.synth import write_scene
+    from tdb.cli import main
+
+    src = tmp_path / "s.laz"
+    write_scene(src, make_scene(seed=3, size=100), density=1, seed=3)
+    runner = CliRunner()
+    r = runner.invoke(main, ["ingest", str(src), "--db", URL, "--version", "cli"])
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(main, ["info", URL])
+    assert r.exit_code == 0 and "cli" in r.output, r.output
+    with pg.engine.begin() as conn:
+        conn.exec_driver_sql("DROP ROLE IF EXISTS tdb_reader")
+        conn.exec_driver_sql("CREATE ROLE tdb_reader LOGIN")
+    try:
+        reader = sqlalchemy.make_url(URL).set(username="tdb_reader").render_as_string(hide_password=False)
+        for args in (["info", reader], ["ingest", str(src), "--db", reader, "--version", "x"]):
+            r = runner.invoke(main, args)
+            assert r.exit_code == 1 and "lacks the rights" in r.output, r.output
+            assert len(r.output.strip().splitlines()) == 1 and "Traceback" not in r.output
+        with pg.engine.begin() as conn:
+            conn.exec_driver_sql("GRANT SELECT ON ALL TABLES IN SCHEMA public TO tdb_reader")
+        assert runner.invoke(main, ["info", reader]).exit_code == 0  # reading is enough to read
+        r = runner.invoke(main, ["rm", "cli", "--db", reader])
+        assert r.exit_code == 1 and "lacks the rights to write" in r.output, r.output
+    finally:
+        with pg.engine.begin() as conn:
+            conn.exec_driver_sql("DROP OWNED BY tdb_reader")
+            conn.exec_driver_sql("DROP ROLE tdb_reader")

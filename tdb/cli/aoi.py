@@ -6,11 +6,11 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import bbox_option, level_option
+from tdb.cli.options import bbox_option, db_option, level_option
 
 
 @click.command("aoi")
-@click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
+@db_option
 @click.option("--version", "version", help="Survey name (optional when the database holds one).")
 @bbox_option(required=True)
 @level_option
@@ -22,7 +22,7 @@ from tdb.cli.options import bbox_option, level_option
     help="Output prefix: writes PREFIX.ply, PREFIX.tif and PREFIX.png.",
 )
 def command(
-    db_path: Path, version: str | None, bbox: tuple[float, float, float, float], level: int, out: Path
+    db_path: Path | str, version: str | None, bbox: tuple[float, float, float, float], level: int, out: Path
 ) -> None:
     """Read an area from the database: the kept points triangulated (PLY), the surface
     rebuilt on a grid (GeoTIFF) and a hillshade coloured by tile category (PNG).

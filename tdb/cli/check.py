@@ -8,9 +8,11 @@ from pathlib import Path
 
 import click
 
+from tdb.cli.options import DATABASE
+
 
 @click.command("check")
-@click.argument("db_path", type=click.Path(path_type=Path))
+@click.argument("db_path", type=DATABASE)
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 def command(db_path: Path, as_json: bool) -> None:
     """Check a terrain database without writing to it: the file's integrity (SQLite's own check),

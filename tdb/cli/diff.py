@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import bbox_option, level_option
+from tdb.cli.options import bbox_option, db_option, level_option
 from tdb.cli.output import check_files, check_output, emit, output_options
 from tdb.crs import check_same_horizontal, height_reference_note
 from tdb.options import Coregistration
@@ -17,7 +17,7 @@ PICTURE = 4_000_000  # most cells of a change map's background
 @click.command("diff")
 @click.argument("before")
 @click.argument("after")
-@click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
+@db_option
 @level_option
 @bbox_option()
 @output_options
@@ -40,7 +40,7 @@ PICTURE = 4_000_000  # most cells of a change map's background
 def command(
     before: str,
     after: str,
-    db_path: Path,
+    db_path: Path | str,
     level: int,
     bbox: tuple[float, float, float, float] | None,
     fmt: str,

@@ -7,16 +7,16 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import input_options
+from tdb.cli.options import DATABASE, input_options
 from tdb.geojson import finite
 from tdb.tiles import LEVELS
 
 
 @click.command("info")
-@click.argument("path", type=click.Path(path_type=Path))
+@click.argument("path", type=DATABASE)
 @input_options
 @click.option("--json", "as_json", is_flag=True, help="Print the facts as JSON.")
-def command(path: Path, crs: str | None, labels: str, as_json: bool) -> None:
+def command(path: Path | str, crs: str | None, labels: str, as_json: bool) -> None:
     """Describe a point cloud: counts, bounds, CRS, units, density, classes, returns.
 
     \b
@@ -27,7 +27,7 @@ def command(path: Path, crs: str | None, labels: str, as_json: bool) -> None:
     """
     from tdb.database import is_database
 
-    if is_database(path):
+    if "://" in str(path) or is_database(path):
         _database_info(path, as_json)
         return
     from ingest.readers import read
@@ -37,7 +37,7 @@ def command(path: Path, crs: str | None, labels: str, as_json: bool) -> None:
     click.echo(json.dumps(finite(info), indent=2, allow_nan=False) if as_json else format_summary(info))
 
 
-def _database_info(path: Path, as_json: bool) -> None:
+def _database_info(path: Path | str, as_json: bool) -> None:
     import tdb
     from tdb.crs import describe, horizontal_part, vertical_part
 

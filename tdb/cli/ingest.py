@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import bbox_option, exclude_option, input_options
+from tdb.cli.options import bbox_option, db_option, exclude_option, input_options
 from tdb.options import GroundMethod, LabelScheme
 
 
@@ -47,7 +47,7 @@ def _summary(points: int, bounds: tuple[float, float, float, float] | None, seco
     help="Model the blocks on a dask.distributed cluster: its scheduler's address (tcp://host:8786). "
     "Its workers need tdb installed; the blocks' points travel with the jobs.",
 )
-@click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
+@db_option
 @click.option("--version", "version", required=True, help="Name of this survey in the database.")
 @click.option("--date", callback=_date, help="Acquisition date, YYYY-MM-DD.")
 @click.option("--method", type=click.Choice(GroundMethod.values()), default="auto", show_default=True)
@@ -71,7 +71,7 @@ def _summary(points: int, bounds: tuple[float, float, float, float] | None, seco
 @exclude_option
 def command(
     cloud: Path,
-    db_path: Path,
+    db_path: Path | str,
     version: str,
     date: dt.date | None,
     method: str,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import click
@@ -14,6 +15,31 @@ from tdb.options import LabelScheme
 from tdb.tiles import LEVELS
 
 F = Callable[..., Any]
+
+
+class DatabaseParam(click.ParamType):
+    """A terrain database: an SQLite file's path, or a database URL (``postgresql+psycopg://…``)
+    passed on as written (a path type would fold its ``//``)."""
+
+    name = "DATABASE"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Path | str:
+        text = str(value)
+        return text if "://" in text else Path(text)
+
+
+DATABASE = DatabaseParam()
+
+
+def db_option(func: F) -> F:
+    """``--db``: the terrain database, a file or a PostgreSQL URL."""
+    return click.option(
+        "--db",
+        "db_path",
+        type=DATABASE,
+        required=True,
+        help="Terrain database: a file, or a PostgreSQL URL (postgresql+psycopg://user@host/dbname).",
+    )(func)
 
 
 def input_options(func: F) -> F:

@@ -7,17 +7,18 @@ from typing import Any
 
 import click
 
+from tdb.cli.options import db_option
 from tdb.cli.output import check_files, check_output, emit, output_options
 from tdb.errors import InputError
 
 
 @click.command("query")
 @click.argument("text")
-@click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
+@db_option
 @output_options
 @click.option("--png", type=click.Path(path_type=Path), help="Also draw the results over a hillshade.")
 def command(
-    text: str, db_path: Path, fmt: str, out: Path | None, layer: str | None, append: bool, png: Path | None
+    text: str, db_path: Path | str, fmt: str, out: Path | None, layer: str | None, append: bool, png: Path | None
 ) -> None:
     """Run a query (see docs/query-language.md). GeoJSON goes to stdout by default, in the
     database's CRS.

@@ -6,11 +6,13 @@ from pathlib import Path
 
 import click
 
+from tdb.cli.options import db_option
+
 
 @click.command("rename")
 @click.argument("version")
 @click.argument("new")
-@click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
+@db_option
 def command(version: str, new: str, db_path: Path) -> None:
     """Rename VERSION to NEW, in one transaction; its model and stored shifts stay as they are.
 

@@ -6,10 +6,12 @@ from pathlib import Path
 
 import click
 
+from tdb.cli.options import db_option
+
 
 @click.command("rm")
 @click.argument("version")
-@click.option("--db", "db_path", type=click.Path(path_type=Path), required=True, help="Terrain database file.")
+@db_option
 def command(version: str, db_path: Path) -> None:
     """Delete VERSION and everything stored of it (tiles, points, evidence, shifts), in one
     transaction: an interruption leaves it whole.
