@@ -291,10 +291,10 @@ def _scatter(
     return files, seen / occupied if occupied else 0.0, own
 
 
-def _in_square(rec: NDArray[Any], core: Box) -> int:
-    """How many of ``rec`` lie in the half-open square ``core``."""
+def _in_square(rec: NDArray[Any], core: Box) -> NDArray[np.bool_]:
+    """Which of ``rec`` lie in the half-open square ``core``."""
     x, y = rec["x"], rec["y"]
-    return int(((x >= core[0]) & (x < core[2]) & (y >= core[1]) & (y < core[3])).sum())
+    return (x >= core[0]) & (x < core[2]) & (y >= core[1]) & (y < core[3])
 
 
 def _touched(grown: NDArray[np.float64], box: Box) -> NDArray[np.intp]:
@@ -399,7 +399,7 @@ def _pilot_threshold(files: list[Path], o: IngestOptions, crs: Any, report: Prog
 
 def _one_block_args(job: Job) -> tuple[int, BlockResult | None]:
     k, blk, path, o, crs = job
-    return k, _one_block(blk, np.fromfile(path, RECORD), o, crs, str(path))
+    return _one_block_at(k, blk, np.fromfile(path, RECORD), o, crs, str(path))
 
 
 def _one_block_at(
@@ -411,7 +411,7 @@ def _one_block_at(
 def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str) -> BlockResult | None:
     """Model one block from its points (``RECORD`` rows) and keep what lies in its own square."""
     x0, y0, x1, y1 = blk.core
-    own = (rec["x"] >= x0) & (rec["x"] < x1) & (rec["y"] >= y0) & (rec["y"] < y1)
+    own = _in_square(rec, blk.core)
     if not own.any() or len(rec) < 3:
         return None
     cloud = from_records(rec, crs=crs, source=source)
