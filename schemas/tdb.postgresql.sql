@@ -1,4 +1,4 @@
--- tdb schema version 4 (postgresql); generated from tdb/schema.py
+-- tdb schema version 5 (postgresql); generated from tdb/schema.py
 
 CREATE TABLE categories (
 	code SMALLINT NOT NULL, 
@@ -32,12 +32,14 @@ CREATE TABLE versions (
 
 CREATE TABLE buildings (
 	version INTEGER NOT NULL, 
+	bx INTEGER NOT NULL, 
+	by INTEGER NOT NULL, 
 	x FLOAT(53) NOT NULL, 
 	y FLOAT(53) NOT NULL, 
 	height FLOAT NOT NULL, 
 	area FLOAT NOT NULL, 
 	footprint BYTEA NOT NULL, 
-	PRIMARY KEY (version, x, y), 
+	PRIMARY KEY (version, bx, by, x, y), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
 );
 
@@ -127,11 +129,13 @@ CREATE TABLE tile_blocks (
 
 CREATE TABLE trees (
 	version INTEGER NOT NULL, 
+	bx INTEGER NOT NULL, 
+	by INTEGER NOT NULL, 
 	x FLOAT(53) NOT NULL, 
 	y FLOAT(53) NOT NULL, 
 	height FLOAT NOT NULL, 
 	crown_diameter FLOAT NOT NULL, 
 	crown BYTEA NOT NULL, 
-	PRIMARY KEY (version, x, y), 
+	PRIMARY KEY (version, bx, by, x, y), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
 );

@@ -30,7 +30,7 @@ from tdb.bbox import Box, check_bbox, clip_bbox
 from tdb.categories import all_categories
 from tdb.errors import DatabaseError, InputError, Remedy, TdbIOError, VersionExistsError, VersionNotFoundError
 from tdb.evidence import TileEvidence
-from tdb.object_store import read_buildings, read_trees
+from tdb.object_store import read_buildings, read_trees, rekey_objects
 from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
 from tdb.stats import VersionStats
@@ -193,6 +193,7 @@ def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
     # the same transaction, and deletes remove child rows explicitly; the check costs ~15 %.
     cur.execute("PRAGMA synchronous=NORMAL")
     cur.execute("PRAGMA cache_size=-262144")  # 256 MiB of pages: index upkeep during big inserts
+    cur.execute(f"PRAGMA journal_size_limit={64 * 2**20}")  # a reset WAL gives its space back
     cur.close()
 
 
@@ -204,6 +205,7 @@ class Database:
         self.name = name
         self.readonly = readonly
         self._tables = set(schema.metadata.tables)  # what this file holds (an older one, read only, less)
+        self._keyed_objects = True  # trees and buildings keyed by block first (schema 5 on)
 
     def __repr__(self) -> str:
         return f"<tdb.Database {self.name!r}>"
@@ -251,8 +253,9 @@ class Database:
         if found < 2 and self.readonly:
             raise DatabaseError(f"{self.name}: schema version {found}; open it once writable to upgrade it")
         if found < schema.SCHEMA_VERSION:
-            if self.readonly:  # the tables it lacks read as empty
+            if self.readonly:  # the tables it lacks read as empty, its objects by their old key
                 self._tables = names
+                self._keyed_objects = False
             else:
                 self._upgrade(found)
         if not self.readonly:
@@ -270,8 +273,11 @@ class Database:
     def _upgrade(self, found: int) -> None:
         """Add the tables a newer schema has: from 1, the block tables, filled from the rows of every
         version; from 2, the evidence table (versions stored before it have no evidence); from 3, the
-        trees and buildings tables (empty for the versions before)."""
+        trees and buildings tables (empty for the versions before); from 4, the objects keyed by their
+        block first."""
         with self.transaction() as conn:
+            if found == 4:
+                rekey_objects(conn)
             schema.metadata.create_all(conn, checkfirst=True)
             old = conn.execute(select(schema.versions.c.id)).scalars().all() if found < 2 else []
             for vid in old:
@@ -417,6 +423,15 @@ class Database:
             writer = VersionWriter(conn, inserted[0], progress=or_silent(progress), rows=rows)
             yield writer
             writer.check_described()
+        self._release_journal()
+
+    def _release_journal(self) -> None:
+        """Copy a big write's journal into the file and give its disk space back: SQLite's WAL
+        grows to the size of the transaction (a version) and would otherwise stay that size, and
+        every later read would look through it."""
+        if self.engine.dialect.name == "sqlite":
+            with self.engine.connect() as conn:
+                conn.exec_driver_sql("PRAGMA wal_checkpoint(TRUNCATE)")
 
     def rename_version(self, name: str, new: str) -> Version:
         """Give version ``name`` the name ``new``, in one transaction.
@@ -461,6 +476,7 @@ class Database:
         vid = self.version(name).id
         with self.transaction() as conn:
             self._delete(conn, vid)
+        self._release_journal()
 
     def _delete(self, conn: Connection, vid: int) -> None:
         tables = (*schema.level_tables.values(), schema.points, schema.tile_blocks, schema.point_blocks)
@@ -621,7 +637,7 @@ class Database:
         if schema.trees.name not in self._tables:
             return []
         with self.engine.connect() as conn:
-            return read_trees(conn, vid, bbox)
+            return read_trees(conn, vid, bbox, keyed=self._keyed_objects)
 
     def buildings(self, version: str, *, bbox: tuple[float, float, float, float] | None = None) -> list[Building]:
         """The buildings of ``version`` whose footprint meets ``bbox`` (all where None), largest first."""
@@ -629,7 +645,7 @@ class Database:
         if schema.buildings.name not in self._tables:
             return []
         with self.engine.connect() as conn:
-            return read_buildings(conn, vid, bbox)
+            return read_buildings(conn, vid, bbox, keyed=self._keyed_objects)
 
     def coregistration(self, before: str, after: str, setting: str) -> dict[str, Any] | None:
         """The shift stored for ``after`` against ``before`` found with ``setting`` (a text that
@@ -721,11 +737,7 @@ def _in_blocks(q: Any, table: Any, bbox: tuple[float, float, float, float] | Non
     """``q`` restricted to the rows of ``table`` whose block (of ``side`` m) meets ``bbox``."""
     if bbox is None:
         return q
-    bbox = check_bbox(bbox)
-    return q.where(
-        table.c.bx.between(int(np.floor(bbox[0] / side)), int(np.floor(bbox[2] / side))),
-        table.c.by.between(int(np.floor(bbox[1] / side)), int(np.floor(bbox[3] / side))),
-    )
+    return q.where(schema.in_blocks(table, check_bbox(bbox), side))
 
 
 def _columns(rows: list[Any], dtypes: tuple[Any, ...]) -> Any:

@@ -14,6 +14,9 @@ centroid, with the outline as WKB.
 
 from __future__ import annotations
 
+import math
+from typing import Any
+
 from sqlalchemy import (
     Column,
     Date,
@@ -26,11 +29,14 @@ from sqlalchemy import (
     String,
     Table,
     Text,
+    and_,
 )
 
 from tdb.tiles import LEVELS
 
-SCHEMA_VERSION = 4  # 2: tile_blocks, point_blocks; 3: evidence_blocks, coregistrations; 4: trees, buildings
+# 2: tile_blocks, point_blocks; 3: evidence_blocks, coregistrations; 4: trees, buildings;
+# 5: the objects keyed by their block first
+SCHEMA_VERSION = 5
 LEVEL_TABLES = {level: f"c{level}" for level in LEVELS}
 
 metadata = MetaData()
@@ -129,12 +135,18 @@ coregistrations = Table(
 )
 
 
+OBJECT_BLOCK = 256.0  # m: the side of the square blocks (bx, by) that lead an object's key
+
+
 def _object_table(name: str, *columns: Column) -> Table:
-    """One row per object of a version, keyed by its position (x, y): the B-tree an area read walks."""
+    """One row per object of a version, keyed by its block and its position (bx, by, x, y): the
+    B-tree an area read walks, one seek per column of blocks the box meets."""
     return Table(
         name,
         metadata,
         Column("version", Integer, ForeignKey("versions.id", ondelete="CASCADE"), primary_key=True),
+        Column("bx", Integer, primary_key=True, autoincrement=False),
+        Column("by", Integer, primary_key=True, autoincrement=False),
         Column("x", Float(53), primary_key=True),
         Column("y", Float(53), primary_key=True),
         *columns,
@@ -168,3 +180,17 @@ def ddl(dialect_name: str = "sqlite") -> str:
         for index in sorted(table.indexes, key=lambda i: str(i.name)):
             parts.append(str(CreateIndex(index).compile(dialect=dialect)).strip() + ";")
     return "\n\n".join(parts) + "\n"
+
+
+MAX_SEEKS = 256  # block columns sought one by one; a wider box reads the columns' range
+
+
+def in_blocks(table: Table, bbox: tuple[float, float, float, float], side: float) -> Any:
+    """The condition that a row of ``table`` (keyed by ``bx``, ``by``) lies in a block of
+    ``side`` m that meets ``bbox``."""
+    bx0, bx1 = math.floor(bbox[0] / side), math.floor(bbox[2] / side)
+    by0, by1 = math.floor(bbox[1] / side), math.floor(bbox[3] / side)
+    # One seek per column of blocks: with a range on bx the B-tree would be walked through
+    # every block of those columns, however far north or south of the box they lie.
+    columns = table.c.bx.in_(range(bx0, bx1 + 1)) if bx1 - bx0 < MAX_SEEKS else table.c.bx.between(bx0, bx1)
+    return and_(columns, table.c.by.between(by0, by1))

@@ -47,6 +47,18 @@ def _points(seed=0, n=1000):
     )
 
 
+def test_a_written_or_removed_version_leaves_no_journal_the_size_of_it(tmp_path):
+    path = tmp_path / "j.tdb"
+    db = tdb.open(path, create=True)
+    wal = Path(f"{path}-wal")
+    db.write_version("a", levels=_levels(n=20_000), points=_points(n=50_000))
+    written = path.stat().st_size
+    assert written > 2**20 and (not wal.exists() or wal.stat().st_size < written / 10)
+    db.delete_version("a")
+    assert not wal.exists() or wal.stat().st_size < written / 10
+    db.close()
+
+
 def test_round_trip(tmp_path):
     db = tdb.open(tmp_path / "a.tdb", create=True)
     levels, points = _levels(), _points()
