@@ -9,7 +9,10 @@ are written 32 × 32 times side by side, 1024 m apart (a multiple of every page'
 ingest uses, one column of copies per part. Each query is timed over 1 km² boxes placed at
 random over the whole area (on the lattice of copies and off it), in a fresh process.
 
-    python -m benchmarks.big_db [--copies 32] [--dir DIR] [--url postgresql://...]
+    python -m benchmarks.big_db [--copies 32] [--density 4] [--dir DIR] [--url postgresql://...]
+
+Results go to ``big_db[_cCOPIES][_dDENSITY][_postgresql].json`` (the suffixes where not the
+defaults).
 """
 
 from __future__ import annotations
@@ -53,10 +56,10 @@ def read_part(db: Database, version: str) -> Part:
     levels = {lv: db.tiles(version, level=lv, ordered=False) for lv in schema.LEVEL_TABLES}
     with db.engine.connect() as conn:
         pages = [
-            bytes(r[0])
+            (int(r[0]), int(r[1]), bytes(r[2]))
             for r in conn.execute(
                 schema.point_blocks.select()
-                .with_only_columns(schema.point_blocks.c.data)
+                .with_only_columns(schema.point_blocks.c.bx, schema.point_blocks.c.by, schema.point_blocks.c.data)
                 .where(schema.point_blocks.c.version == vid)
             )
         ]
@@ -157,13 +160,16 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--copies", type=int, default=32)
     p.add_argument("--dir", type=Path, default=Path("/tmp/tdb-big"), help="where the databases are made and kept")
+    p.add_argument("--density", type=float, default=4.0, help="points per m² of the ingested pair")
     p.add_argument("--url", help="a PostgreSQL database to fill instead of an SQLite file")
     a = p.parse_args()
-    a.dir.mkdir(parents=True, exist_ok=True)
-    km2 = a.dir / "km2.tdb"
+    tag = f"_c{a.copies}" * (a.copies != 32) + f"_d{a.density:g}" * (a.density != 4.0)
+    work = a.dir / f"d{a.density:g}" if a.density != 4.0 else a.dir
+    work.mkdir(parents=True, exist_ok=True)
+    km2 = work / "km2.tdb"
     if not km2.exists():
-        km2 = km2_pair(a.dir, density=4.0)
-    target_name = a.url or str(a.dir / f"big{a.copies}.tdb")
+        km2 = km2_pair(work, density=a.density)
+    target_name = a.url or str(a.dir / f"big{a.copies}{tag}.tdb")
     built = None
     if a.url or not Path(target_name).exists():
         with tdb.open(km2) as source, tdb.open(target_name, create=True) as target:
@@ -174,6 +180,7 @@ def main() -> None:
         doc = {
             "backend": "postgresql" if a.url else "sqlite",
             "copies": a.copies,
+            "density": a.density,
             "area_km2": (bounds[2] - bounds[0]) * (bounds[3] - bounds[1]) / 1e6,
             "rows_2m": db.count("before", table="c2"),
             "points": db.count("before"),
@@ -183,7 +190,7 @@ def main() -> None:
             "peak_rss_mib": peak_rss_mib(),
         }
     print(json.dumps({k: v for k, v in doc.items() if not isinstance(v, list)}, indent=1))
-    print(save("big_db" if not a.url else "big_db_postgresql", doc))
+    print(save("big_db" + tag + "_postgresql" * bool(a.url), doc))
 
 
 if __name__ == "__main__":

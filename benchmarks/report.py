@@ -371,24 +371,29 @@ def large_area_section(out: list[str]) -> None:
 
 
 def big_db_section(out: list[str]) -> None:
-    docs = [d for d in (_load("big_db"), _load("big_db_postgresql")) if d]
+    docs = [json.loads(p.read_text()) for p in sorted(RESULTS.glob("big_db*.json"))]
+    docs.sort(key=lambda d: (d["backend"], d["area_km2"], -d.get("density", 4.0)))
     if not docs:
         return
     out += [
         "## Queries on a database of more than 1,000 km²",
         "",
-        "`python -m benchmarks.big_db`: the 1 km² synthetic pair of `changes_synth` ingested once and "
-        "written 32 × 32 times side by side (1024 m apart) through the version writer; each query over "
-        f"{len(docs[0]['aoi_ms'])} boxes of 1 km² placed at random, medians (and the slowest).",
+        "`python -m benchmarks.big_db [--copies N] [--density D]`: the 1 km² synthetic pair of "
+        "`changes_synth` ingested once at D points/m² and written N × N times side by side (1024 m apart) "
+        "through the version writer; each query over "
+        f"{len(docs[0]['aoi_ms'])} boxes of 1 km² placed at random, medians (and the slowest). "
+        "The `aoi` returns every tile and every kept point of its box.",
         "",
-        "| backend | area km² | 2 m tiles per version | database MiB | 1 km² `aoi` ms (target ≤ 20) "
-        "| ditch query over 1 km² s (≤ 0.3) | diff over 1 km² s (≤ 0.5) | machine |",
-        "|---|---|---|---|---|---|---|---|",
+        "| backend | area km² | points/m² | 2 m tiles per version | kept points per version | database MiB "
+        "| 1 km² `aoi` ms (target ≤ 20) | ditch query over 1 km² s (≤ 0.3) | diff over 1 km² s (≤ 0.5) "
+        "| machine |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for d in docs:
         size = f"{d['file_mib']:,.0f}" if d.get("file_mib") else "–"
         out.append(
-            f"| {d['backend']} | {d['area_km2']:,.0f} | {d['rows_2m']:,} | {size} | "
+            f"| {d['backend']} | {d['area_km2']:,.0f} | {d.get('density', 4.0):g} | {d['rows_2m']:,} | "
+            f"{d['points']:,} | {size} | "
             f"{d['aoi_ms_median']:.0f} ({max(d['aoi_ms']):.0f}) | "
             f"{d['ditch_s_median']:.2f} ({max(d['ditch_s']):.2f}) | "
             f"{d['diff_s_median']:.2f} ({max(d['diff_s']):.2f}) | {_machine(d)} |"

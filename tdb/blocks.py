@@ -122,14 +122,21 @@ def point_blocks(
 
 
 def points_from_blocks(
-    blocks: list[bytes], bbox: tuple[float, float, float, float], *, mask: int
+    blocks: list[tuple[int, int, bytes]], bbox: tuple[float, float, float, float], *, mask: int
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
-    """(x, y, z, n) of the points of ``blocks`` inside ``bbox`` whose level mask has a bit of ``mask``."""
+    """(x, y, z, n) of the points of ``blocks`` (bx, by, page) inside ``bbox`` whose level mask
+    has a bit of ``mask``."""
     x0, y0, x1, y1 = bbox
     parts = []
-    for blob in blocks:
+    for bx, by, blob in blocks:
         x, y, z, n = _decoded(blob)
-        keep = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1) & ((n & mask) > 0)
+        keep = (n & mask) > 0
+        # only where the box's edge cuts a block need its points be placed (a block holds
+        # bx * side <= x < (bx + 1) * side, exactly: the side is a power of two)
+        if not (x0 <= bx * POINT_BLOCK and (bx + 1) * POINT_BLOCK <= x1):
+            keep &= (x >= x0) & (x <= x1)
+        if not (y0 <= by * POINT_BLOCK and (by + 1) * POINT_BLOCK <= y1):
+            keep &= (y >= y0) & (y <= y1)
         parts.append((x[keep], y[keep], z[keep], n[keep]))
     if not parts:
         return np.empty(0), np.empty(0), np.empty(0), np.empty(0, np.uint8)

@@ -608,10 +608,12 @@ class Database:
         self, vid: int, level: int, bbox: tuple[float, float, float, float] | None
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
         pb = schema.point_blocks
-        q = _in_blocks(select(pb.c.data).where(pb.c.version == vid), pb, bbox, blocks.POINT_BLOCK)
+        q = select(pb.c.bx, pb.c.by, pb.c.data).where(pb.c.version == vid)
+        q = _in_blocks(q, pb, bbox, blocks.POINT_BLOCK)
         inf = float("inf")
         mask = 1 << schema_levels().index(level)
-        return blocks.points_from_blocks([r[0] for r in self._fetch(q)], bbox or (-inf, -inf, inf, inf), mask=mask)
+        rows = [tuple(r) for r in self._fetch(q)]
+        return blocks.points_from_blocks(rows, bbox or (-inf, -inf, inf, inf), mask=mask)
 
     def evidence(self, version: str, *, bbox: tuple[float, float, float, float] | None = None) -> TileEvidence:
         """The ground evidence of the 2 m tiles of ``version`` overlapping ``bbox``

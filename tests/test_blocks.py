@@ -29,18 +29,38 @@ def test_tile_blocks_round_trip_any_bbox(seed, level, n):
     )
 
 
-def test_point_blocks_filter_by_bbox_and_level():
+@settings(max_examples=40, deadline=None)
+@given(
+    x0=st.integers(-700, 800),
+    y0=st.integers(-300, 1000),
+    w=st.integers(0, 1600),
+    h=st.integers(0, 1400),
+    mask=st.sampled_from([1, 4, 8, 15]),
+)
+def test_point_blocks_filter_by_bbox_and_level(x0, y0, w, h, mask):
+    """Boxes from within one block to several, with edges on block edges and on points (half
+    metres: the points lie on a 0.5 m lattice, block edges included)."""
     from tdb.blocks import point_blocks
 
     rng = np.random.default_rng(5)
-    x = np.round(rng.uniform(-300, 700, 3000) * 2) / 2
-    y = np.round(rng.uniform(100, 900, 3000) * 2) / 2
-    z = rng.normal(size=3000)
-    n = rng.integers(1, 16, 3000).astype(np.uint8)
-    bbox = (0.0, 200.0, 400.0, 650.0)
-    got = points_from_blocks([b for _, _, b in point_blocks(x, y, z, n)], bbox, mask=4)
-    want = (x >= 0) & (x <= 400) & (y >= 200) & (y <= 650) & ((n & 4) > 0)
+    x = np.round(rng.uniform(-600, 900, 6000) * 2) / 2
+    y = np.round(rng.uniform(-300, 1100, 6000) * 2) / 2
+    z = rng.normal(size=6000)
+    n = rng.integers(1, 16, 6000).astype(np.uint8)
+    bbox = (x0 / 2, y0 / 2, (x0 + w) / 2, (y0 + h) / 2) if w < 400 else (x0, y0, x0 + w, y0 + h)
+    got = points_from_blocks(list(point_blocks(x, y, z, n)), bbox, mask=mask)
+    want = (x >= bbox[0]) & (x <= bbox[2]) & (y >= bbox[1]) & (y <= bbox[3]) & ((n & mask) > 0)
     assert sorted(zip(got[0], got[1], got[2])) == sorted(zip(x[want], y[want], z[want]))
+
+
+def test_whole_blocks_inside_a_box_come_whole():
+    from tdb.blocks import point_blocks
+
+    x = np.array([0.0, 255.99, 256.0, 511.5, 512.0, -0.5])
+    y = np.array([0.0, 10.0, 255.99, 256.0, 100.0, 3.0])
+    n = np.full(6, 15, np.uint8)
+    got = points_from_blocks(list(point_blocks(x, y, x * 0, n)), (0.0, 0.0, 512.0, 512.0), mask=1)
+    assert sorted(got[0].tolist()) == [0.0, 255.99, 256.0, 511.5, 512.0]
 
 
 def _write(db):
