@@ -19,8 +19,8 @@ from their neighbours; the dense model bridges holes (roofs, water) by a triangu
 them; the 16 m level samples a model smoothed over 2 m. Four windows (64 m) hold all of these
 for holes up to about 64 m across. What can still differ: object groups larger than the buffer
 (an embankment several hundred metres long is judged by its whole extent). The flat threshold
-is one for the whole survey, from the ground noise of its fullest block (a one-piece ingest
-measures it on all the ground, a little differently) unless one is given. How often tiles
+is one for the whole survey, measured as a one-piece ingest measures it, on the fullest square
+of a fixed lattice (:mod:`ingest.noise`), unless one is given. How often tiles
 differ from a one-piece ingest of the same area is measured by ``tests/test_blocked.py`` and
 ``benchmarks/blocked_ingest.py``.
 """
@@ -32,6 +32,7 @@ import itertools
 import os
 import tempfile
 import warnings
+from collections import Counter
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -47,10 +48,10 @@ from ingest.catalog import Box, Catalog, is_catalog, open_catalog, overlaps
 from ingest.ground import classify_ground
 from ingest.ground.outliers import DENSITY_BLOCK
 from ingest.ground.tiling import available_cores, one_blas_thread_here
-from ingest.noise import ground_noise
+from ingest.noise import fullest_square, pilot_threshold, square_counts
 from ingest.objects import Objects
 from ingest.objects.cover import SINGLE_RETURNS
-from ingest.pipeline import IngestOptions, flat_threshold_for, survey
+from ingest.pipeline import IngestOptions, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
 from ingest.readers import RECORD, from_records, in_box, iter_records
 from ingest.spool import Spool
@@ -151,12 +152,10 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     # Where only a region is wanted, only it and its buffer are read (COPC files by range).
     wanted = None if b.region is None else _grown(area, b.buffer)
     with tempfile.TemporaryDirectory(prefix="tdb-blocks-") as tmp:
-        files, density, own = _scatter(
-            catalog, blocks, Path(tmp), report, exclude=o.exclude, box=wanted, skip=done
-        )
-        o = _resolved(o, settings, density, files, crs, report)
+        sc = _scatter(catalog, blocks, Path(tmp), report, exclude=o.exclude, box=wanted, skip=done)
+        o = _resolved(o, settings, sc, blocks, b, crs, report)
         spool.record({"density": o.density, "flat_threshold": o.flat_threshold})
-        _model(blocks, files, o, b, crs, Counted(report, own), spool=spool, skip=done)
+        _model(blocks, sc.files, o, b, crs, Counted(report, sc.own), spool=spool, skip=done)
     stored = _store(
         db,
         version,
@@ -187,16 +186,22 @@ def _run(catalog: Catalog, o: IngestOptions, b: Blocking) -> dict[str, Any]:
 
 
 def _resolved(
-    o: IngestOptions, settings: dict[str, Any], density: float, files: list[Path], crs: Any, report: Progress
+    o: IngestOptions,
+    settings: dict[str, Any],
+    sc: Scattered,
+    blocks: list[_Block],
+    b: Blocking,
+    crs: Any,
+    report: Progress,
 ) -> IngestOptions:
     """The options with the survey's point density and flat threshold filled in: as the
     unfinished run measured them where resumed, else measured now."""
     if o.density is None:
-        found = settings.get("density") or density
+        found = settings.get("density") or sc.density
         if found:
             o = dataclasses.replace(o, density=found)
     if o.flat_threshold is None:
-        found = settings.get("flat_threshold") or _pilot_threshold(files, o, crs, report)
+        found = settings.get("flat_threshold") or _pilot_threshold(sc, blocks, b.buffer, o, crs, report)
         o = dataclasses.replace(o, flat_threshold=found)
     return o
 
@@ -245,6 +250,17 @@ def _grown(box: Box, by: float) -> Box:
     return (box[0] - by, box[1] - by, box[2] + by, box[3] + by)
 
 
+@dataclass(frozen=True)
+class Scattered:
+    """What the pass over the input leaves: a file of points per block, the survey's point
+    density, how many points each block owns, and the points per pilot square (:mod:`ingest.noise`)."""
+
+    files: list[Path]
+    density: float
+    own: NDArray[np.int64]
+    squares: dict[tuple[int, int], int]
+
+
 def _scatter(
     catalog: Catalog,
     blocks: list[_Block],
@@ -254,17 +270,19 @@ def _scatter(
     exclude: tuple[int, ...],
     box: Box | None = None,
     skip: set[int] | frozenset[int] = frozenset(),
-) -> tuple[list[Path], float, NDArray[np.int64]]:
+) -> Scattered:
     """One pass over the input (or its points in ``box``): every point appended to the file of
     each block whose buffered box holds it; the survey's point density as the ground filter
     measures it on the points it sees (those not of the ``exclude`` classes), over the whole survey,
-    once; and how many points each block owns (in its square, for the progress of the modelling).
-    The blocks of ``skip`` (finished by an earlier run) get no file."""
+    once; how many points each block owns (in its square, for the progress of the modelling); and
+    how many points it sees in each pilot square. The blocks of ``skip`` (finished by an earlier
+    run) get no file."""
     files = [tmp / f"block{k}.bin" for k in range(len(blocks))]
     own = np.zeros(len(blocks), np.int64)
     grown = np.array([blk.grown for blk in blocks])
     done, total = 0, catalog.points
     seen, cells = 0, []
+    squares: Counter[tuple[int, int]] = Counter()
     report("reading", 0, total)
     for f in catalog.files:
         if box is not None and not overlaps(f.bounds, box):
@@ -273,6 +291,7 @@ def _scatter(
             use = ~excluded(rec["c"], exclude)
             seen += int(use.sum())
             cells.append(np.unique(tile_key(*(np.floor(rec[a][use] / DENSITY_BLOCK) for a in "xy"))))
+            squares.update(square_counts(rec["x"][use], rec["y"][use]))
             for k in _touched(grown, f.bounds):
                 if k in skip:
                     continue
@@ -288,7 +307,7 @@ def _scatter(
             done += len(rec)
             report("reading", done, total)
     occupied = len(np.unique(np.concatenate(cells))) * DENSITY_BLOCK**2 if cells else 0.0
-    return files, seen / occupied if occupied else 0.0, own
+    return Scattered(files, seen / occupied if occupied else 0.0, own, dict(squares))
 
 
 def _in_square(rec: NDArray[Any], core: Box) -> NDArray[np.bool_]:
@@ -386,15 +405,25 @@ def _on_cluster(jobs: list[Job], address: str) -> Iterator[tuple[int, BlockResul
                 queue.add(send(nxt))
 
 
-def _pilot_threshold(files: list[Path], o: IngestOptions, crs: Any, report: Progress) -> float:
-    """The survey's flat threshold, from the ground noise of its fullest block: one threshold
-    for all blocks, so that a tile's category does not depend on the block it fell in."""
+def _pilot_threshold(
+    sc: Scattered, blocks: list[_Block], buffer: float, o: IngestOptions, crs: Any, report: Progress
+) -> float:
+    """The survey's flat threshold, measured as a one-piece ingest measures it: on the ground of
+    the fullest pilot square (:mod:`ingest.noise`), filtered with a buffer's width of points
+    around it, gathered from the blocks that own them."""
     report("ground noise", 0, 1)
-    fullest = max((p for p in files if p.exists()), key=lambda p: p.stat().st_size)
-    cloud = from_records(np.fromfile(fullest, RECORD), crs=crs, source=str(fullest))
+    square = fullest_square(sc.squares)
+    around = _grown(square, buffer)
+    parts = []
+    for blk, path in zip(blocks, sc.files):
+        if path.exists() and overlaps(blk.core, around):
+            rec = np.fromfile(path, RECORD)
+            parts.append(rec[_in_square(rec, blk.core) & _in_square(rec, around)])
+    rec = np.concatenate(parts)
+    cloud = from_records(rec[np.lexsort((rec["z"], rec["y"], rec["x"]))], crs=crs, source="pilot square")
     ground = classify_ground(to_metres(cloud), method=o.method, exclude=o.exclude, density=o.density)
     report("ground noise", 1, 1)
-    return flat_threshold_for(ground_noise(cloud.xyz[ground]))
+    return pilot_threshold(cloud.xyz[ground], square)
 
 
 def _one_block_args(job: Job) -> tuple[int, BlockResult | None]:

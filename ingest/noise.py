@@ -1,4 +1,13 @@
-"""Sensor noise of the ground: the scatter of ground points about their local plane."""
+"""Sensor noise of the ground: the scatter of ground points about their local plane, and the
+survey's flat threshold from it.
+
+The threshold is measured on one square of the survey, the :data:`PILOT_SQUARE` m square of a
+fixed lattice holding the most points: a definition that does not depend on how the work is cut,
+so that an ingest block by block and one in one piece find the same threshold (the blocks'
+ground there is the one-piece ground up to their buffer's rare differences, the sample of
+neighbourhoods is chosen by the points' own coordinates, and the threshold is whole
+centimetres).
+"""
 
 from __future__ import annotations
 
@@ -6,22 +15,77 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+MIN_FLAT = 0.10  # m: below this a threshold would call noise a form
+NOISE_FACTOR = 5.0  # flat threshold = this × the measured ground noise
+
 
 def ground_noise(ground_xyz: NDArray[np.float64], *, k: int = 10, sample: int = 20_000, seed: int = 0) -> float:
     """Robust σ (m) of ground heights about planes fitted to their ``k`` nearest neighbours.
 
     The smallest eigenvalue of a neighbourhood's covariance is the variance
-    across its best plane; the median over a sample of neighbourhoods ignores
-    breaks of slope and leftover objects.
+    across its best plane; the median over a sample of about ``sample`` neighbourhoods ignores
+    breaks of slope and leftover objects. Whether a point is sampled depends on its coordinates
+    alone (and ``seed``), not on the order or the company it comes in.
     """
     xyz = np.asarray(ground_xyz, float)
     if len(xyz) <= k:
         return 0.0
-    rng = np.random.default_rng(seed)
-    pick = rng.choice(len(xyz), min(sample, len(xyz)), replace=False)
+    pick = _sample(xyz, sample, seed)
     _, nb = cKDTree(xyz[:, :2]).query(xyz[pick, :2], k=k)
     pts = xyz[nb]
     centred = pts - pts.mean(axis=1, keepdims=True)
     cov = np.einsum("nki,nkj->nij", centred, centred) / (k - 3)
     smallest = np.linalg.eigvalsh(cov)[:, 0]
     return float(np.sqrt(np.median(np.maximum(smallest, 0.0))))
+
+
+PILOT_SQUARE = 256.0  # m: the squares the flat threshold's noise is measured in
+THRESHOLD_STEP = 0.01  # m: the flat threshold in whole centimetres
+
+
+def _sample(xyz: NDArray[np.float64], size: int, seed: int) -> NDArray[np.intp]:
+    """About ``size`` of the points, each chosen by a hash of its x and y (SplitMix64's mixer)."""
+    if len(xyz) <= size:
+        return np.arange(len(xyz))
+    bits = np.ascontiguousarray(xyz[:, :2]).view(np.uint64)
+    with np.errstate(over="ignore"):
+        h = bits[:, 0] * np.uint64(0x9E3779B97F4A7C15) ^ bits[:, 1] ^ np.uint64(seed)
+        h = (h ^ (h >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        h = (h ^ (h >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        h ^= h >> np.uint64(31)
+    keep = h < np.uint64(int(size / len(xyz) * 2.0**64))
+    return np.flatnonzero(keep)
+
+
+def square_counts(x: NDArray[np.float64], y: NDArray[np.float64]) -> dict[tuple[int, int], int]:
+    """Points per :data:`PILOT_SQUARE` m square (keyed by its indices)."""
+    i = np.floor(np.asarray(x) / PILOT_SQUARE).astype(np.int64)
+    j = np.floor(np.asarray(y) / PILOT_SQUARE).astype(np.int64)
+    keys, counts = np.unique(np.stack([i, j]), axis=1, return_counts=True)
+    return {(int(a), int(b)): int(c) for a, b, c in zip(keys[0], keys[1], counts)}
+
+
+def fullest_square(counts: dict[tuple[int, int], int]) -> tuple[float, float, float, float]:
+    """The box of the square holding the most points (the first in key order of equals)."""
+    if not counts:
+        raise ValueError("no points to find a square in")
+    most = max(counts.values())
+    i, j = min(k for k, c in counts.items() if c == most)
+    return (i * PILOT_SQUARE, j * PILOT_SQUARE, (i + 1) * PILOT_SQUARE, (j + 1) * PILOT_SQUARE)
+
+
+def in_box(xy: NDArray[np.float64], box: tuple[float, float, float, float]) -> NDArray[np.bool_]:
+    """Which of the points lie in the half-open ``box``."""
+    return (xy[:, 0] >= box[0]) & (xy[:, 0] < box[2]) & (xy[:, 1] >= box[1]) & (xy[:, 1] < box[3])
+
+
+def flat_threshold_for(noise: float) -> float:
+    """The height range (m) under which a tile is flat: ``NOISE_FACTOR`` × the ground noise, at
+    least ``MIN_FLAT``, in whole centimetres."""
+    return round(max(MIN_FLAT, NOISE_FACTOR * noise) / THRESHOLD_STEP) * THRESHOLD_STEP
+
+
+def pilot_threshold(ground_xyz: NDArray[np.float64], square: tuple[float, float, float, float]) -> float:
+    """The survey's flat threshold from the noise of its ground points in ``square``."""
+    xyz = np.asarray(ground_xyz, float)
+    return flat_threshold_for(ground_noise(xyz[in_box(xyz, square)]))

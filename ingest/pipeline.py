@@ -15,7 +15,7 @@ from ingest.evidence import tile_evidence
 from ingest.ground import classify_ground
 from ingest.ground.grids import quantised
 from ingest.ground.hills import point_spacing
-from ingest.noise import ground_noise
+from ingest.noise import fullest_square, ground_noise, pilot_threshold, square_counts
 from ingest.objects import Objects, find_objects
 from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
@@ -30,9 +30,6 @@ from tdb.raster import Raster
 from tdb.stats import VersionStats
 from tdb.tiles import LEVELS, SUBGRID, node_spacing
 from tdb.units import as_crs, to_metres
-
-MIN_FLAT = 0.10  # m: below this a threshold would call noise a form
-NOISE_FACTOR = 5.0  # flat threshold = this × the measured ground noise
 
 
 @dataclass(frozen=True)
@@ -90,10 +87,6 @@ class IngestOptions:
             raise InputError(f"a flat threshold is a height range of 0 m or more, got {t}")
 
 
-def flat_threshold_for(noise: float) -> float:
-    return max(MIN_FLAT, NOISE_FACTOR * noise)
-
-
 def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress: Progress | None = None) -> Survey:
     """Derive the terrain model of one cloud (pure: nothing is written).
 
@@ -109,7 +102,10 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
     gxyz = metric.xyz[ground]
     dtm = dense_model(gxyz, resolution=o.resolution, crs=metric.crs)
     noise = ground_noise(gxyz)
-    threshold = o.flat_threshold if o.flat_threshold is not None else flat_threshold_for(noise)
+    threshold = o.flat_threshold
+    if threshold is None:
+        seen = metric.xyz[~excluded(metric.classification, o.exclude)]
+        threshold = pilot_threshold(gxyz, fullest_square(square_counts(seen[:, 0], seen[:, 1])))
     report("categories and reduction", 0, 1)
     model = build(dtm, flat_threshold=threshold, n=SUBGRID)
     finest = model.levels[min(model.levels)]

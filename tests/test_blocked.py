@@ -8,7 +8,7 @@ import pytest
 import tdb
 from ingest.blocked import Blocking, ingest_blocked
 from ingest.catalog import open_catalog
-from ingest.pipeline import IngestOptions, ingest
+from ingest.pipeline import ingest
 from ingest.readers import read, write_las
 from ingest.synth import make_scene, write_scene
 from tdb.errors import CRSError, InputError, TdbIOError
@@ -31,10 +31,9 @@ def scene_file(tmp_path_factory):
 def test_blocks_give_the_one_piece_model(scene_file, tmp_path):
     db = tdb.open(tmp_path / "b.tdb", create=True)
     whole = ingest(scene_file, db, version="whole")
-    options = IngestOptions(flat_threshold=whole.params["flat_threshold"])
-    ingest_blocked(
-        scene_file, db, version="blocks", options=options, blocking=Blocking(block=96, buffer=64, workers=2)
-    )
+    blocks = ingest_blocked(scene_file, db, version="blocks", blocking=Blocking(block=96, buffer=64, workers=2))
+    # measured on the same square of the same lattice, however the survey is cut
+    assert blocks.params["flat_threshold"] == whole.params["flat_threshold"]
     for level in LEVELS:
         a, b = _codes(db, "whole", level), _codes(db, "blocks", level)
         assert set(a) == set(b), level  # every tile, once
@@ -165,14 +164,14 @@ def test_blocks_size_their_outlier_test_to_the_whole_survey(scene_file, tmp_path
     from ingest.blocked import _blocks, _scatter
     from ingest.catalog import open_catalog
     from ingest.ground.outliers import point_density
+    from ingest.noise import square_counts
     from ingest.readers import read
     from tdb.classes import NOISE, excluded
 
     catalog = open_catalog([scene_file])
-    _, density, own = _scatter(
-        catalog, _blocks(catalog.bounds, Blocking(block=96)), tmp_path, lambda *a: None, exclude=NOISE
-    )
-    assert own.sum() == catalog.points  # every point in one block's own square
+    sc = _scatter(catalog, _blocks(catalog.bounds, Blocking(block=96)), tmp_path, lambda *a: None, exclude=NOISE)
+    assert sc.own.sum() == catalog.points  # every point in one block's own square
     cloud = read(scene_file)
     seen = ~excluded(cloud.classification, NOISE)
-    assert density == pytest.approx(point_density(cloud.xyz[seen, :2]), rel=1e-12)
+    assert sc.density == pytest.approx(point_density(cloud.xyz[seen, :2]), rel=1e-12)
+    assert sc.squares == square_counts(cloud.x[seen], cloud.y[seen])  # counted chunk by chunk
