@@ -8,7 +8,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from tdb.evidence import LEVEL, SUPPORT_SPACINGS, TileEvidence
-from tdb.tiles import tile_key
+from tdb.tiles import key_pair, tile_key
 
 NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic's six terms
 TOLERANCE = 0.1  # m per m: what a neighbour carried along the surface may fall short by
@@ -108,7 +108,8 @@ def _node_distance(
     du, dv = (a.ravel() for a in np.meshgrid([0, step, LEVEL], [0, step, LEVEL]))
     nx, ny = (xg[:, None] + du).ravel(), (yg[:, None] + dv).ravel()
     keys, inverse = np.unique(tile_key(nx, ny), return_inverse=True)
-    ux, uy = (keys >> 32).astype(float), (keys & 0xFFFFFFFF).astype(np.uint32).view(np.int32).astype(float)
+    ki, kj = key_pair(keys)
+    ux, uy = ki.astype(float), kj.astype(float)
     cap = max(100.0 * radius, 50.0)
     if len(g) == 0:
         return np.full((len(xg), 9), cap)

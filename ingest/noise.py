@@ -15,6 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from tdb.tiles import key_pair, tile_key
+
 MIN_FLAT = 0.10  # m: below this a threshold would call noise a form
 NOISE_FACTOR = 5.0  # flat threshold = this × the measured ground noise
 
@@ -61,8 +63,9 @@ def square_counts(x: NDArray[np.float64], y: NDArray[np.float64]) -> dict[tuple[
     """Points per :data:`PILOT_SQUARE` m square (keyed by its indices)."""
     i = np.floor(np.asarray(x) / PILOT_SQUARE).astype(np.int64)
     j = np.floor(np.asarray(y) / PILOT_SQUARE).astype(np.int64)
-    keys, counts = np.unique(np.stack([i, j]), axis=1, return_counts=True)
-    return {(int(a), int(b)): int(c) for a, b, c in zip(keys[0], keys[1], counts)}
+    keys, counts = np.unique(tile_key(i, j), return_counts=True)
+    ki, kj = key_pair(keys)
+    return {(int(a), int(b)): int(c) for a, b, c in zip(ki, kj, counts)}
 
 
 def fullest_square(counts: dict[tuple[int, int], int]) -> tuple[float, float, float, float]:

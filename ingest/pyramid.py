@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.categorise import categorise
-from ingest.reduce import budget_for, kept_nodes, paper_keep, refine
+from ingest.reduce import KeptNodes, budget_for, kept_nodes, paper_keep, refine
 from ingest.tiles import node_grid
 from tdb.categories import NO_DATA
 from tdb.raster import Raster
@@ -52,9 +52,9 @@ def build(
     """
     unit = min(levels) / (n - 1)
     out: dict[int, LevelTiles] = {}
-    keys: list[NDArray[np.int64]] = []
+    kept_levels: list[KeptNodes] = []
     finest_grid: NodeLattice | None = None
-    bits: list[NDArray[np.uint8]] = []
+    bits: list[int] = []
     for level in levels:
         grid = node_grid(dtm, level, n=n)
         tiles, ti, tj = grid.tiles(n)
@@ -67,20 +67,34 @@ def build(
             keep = refine(tiles, codes, ti, tj, n=n, budget=budget_for(grid, n=n), relief=flat_threshold)
         else:
             keep = paper_keep(tiles, codes, n=n)
-        kept = kept_nodes(grid, keep, ti, tj, n=n, unit=unit)
-        keys.append(np.column_stack([kept.kx, kept.ky]))
-        bits.append(np.full(len(kept.kx), level_bit(level), np.uint8))
-    allkeys = np.vstack(keys)
-    uniq, inverse = np.unique(allkeys, axis=0, return_inverse=True)
-    mask = np.zeros(len(uniq), np.uint8)
-    np.bitwise_or.at(mask, inverse.ravel(), np.concatenate(bits))
-    x = (uniq[:, 0] * unit).astype(np.float64)
-    y = (uniq[:, 1] * unit).astype(np.float64)
+        kept_levels.append(kept_nodes(grid, keep, ti, tj, n=n, unit=unit))
+        bits.append(level_bit(level))
+    kx, ky, mask = _merged(kept_levels, bits)
+    x = (kx * unit).astype(np.float64)
+    y = (ky * unit).astype(np.float64)
     z = dtm.sample(x, y)
     good = ~np.isnan(z)
     model = TerrainModel(out, x[good], y[good], z[good], mask[good])
     stats = reduction_stats(dtm, model, n=n, dense=finest_grid)
     return TerrainModel(model.levels, model.x, model.y, model.z, model.n, stats)
+
+
+def _merged(
+    kept: list[KeptNodes], bits: list[int]
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]:
+    """The distinct positions of the levels' kept nodes in x-major order, each with the OR of the
+    bits of the levels that keep it: on a raster over their extent, as every level's nodes lie on
+    the finest lattice (and each level's are distinct)."""
+    kept = [k for k in kept if len(k.kx)]
+    if not kept:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.uint8)
+    x0, y0 = min(int(k.kx.min()) for k in kept), min(int(k.ky.min()) for k in kept)
+    x1, y1 = max(int(k.kx.max()) for k in kept), max(int(k.ky.max()) for k in kept)
+    raster = np.zeros((x1 - x0 + 1, y1 - y0 + 1), np.uint8)
+    for k, bit in zip(kept, bits):
+        raster[k.kx - x0, k.ky - y0] |= bit
+    ii, jj = np.nonzero(raster)
+    return ii + x0, jj + y0, raster[ii, jj]
 
 
 def reduction_stats(

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tdb.categories import NO_DATA, feature_nodes
-from tdb.surface import line_rebuild
+from tdb.surface import line_rebuild_at
 from tdb.tiles import NodeLattice, TileIndex, corner_mask
 
 TOLERANCE = 0.05  # m: a node rebuilt this close to the dense model needs no point of its own
@@ -55,7 +55,7 @@ def rebuild_error(tiles: NDArray[np.float64], keep: NDArray[np.bool_], *, n: int
     kept node has error inf, so that it is given one first.
     """
     z = np.where(keep, tiles, np.nan)
-    rebuilt = line_rebuild(z.reshape(-1, n, n)).reshape(tiles.shape)
+    rebuilt = line_rebuild_at(z.reshape(-1, n, n))
     known = ~np.isnan(z)
     kept = known.sum(axis=1, keepdims=True)
     mean = np.where(kept > 0, np.where(known, z, 0.0).sum(axis=1, keepdims=True) / np.maximum(kept, 1), np.nan)
@@ -98,12 +98,16 @@ def refine(  # noqa: PLR0913 (a numeric kernel: the tiles' four arrays and its b
     # off is not left for a bend of 0.1 m.
     feature = category_nodes(codes, n=n) & (err > max(relief, tolerance))
     feature_err = np.where(feature, err, 0.0)
+    # each tile's worst error, kept up to date for the tiles touched: a band's pass then reads
+    # only the tiles above it, not every node again
+    tile_worst = err.max(axis=1, initial=0.0)
 
     def keep_nodes(t: NDArray[np.intp], node: NDArray[np.intp], e: NDArray[np.float64]) -> None:
         nonlocal budget
         added, rows = _add(keep, t, node, e, budget, nb, n)
         budget -= added
         err[rows] = rebuild_error(tiles[rows], keep[rows], n=n)
+        tile_worst[rows] = err[rows].max(axis=1, initial=0.0)
 
     def keep_features(floor: float) -> None:
         t, node = np.nonzero((feature_err > floor) & ~keep)
@@ -116,12 +120,11 @@ def refine(  # noqa: PLR0913 (a numeric kernel: the tiles' four arrays and its b
         if not fits:
             keep_features(band)
         while budget > 0:
-            worst = err.argmax(axis=1)
-            e = err[np.arange(len(err)), worst]
-            t = np.flatnonzero(e > band)
+            t = np.flatnonzero(tile_worst > band)
             if len(t) == 0:
                 break
-            keep_nodes(t, worst[t], e[t])
+            worst = err[t].argmax(axis=1)
+            keep_nodes(t, worst, err[t, worst])
     return keep
 
 
@@ -183,7 +186,11 @@ def kept_nodes(
     t_idx, node = np.nonzero(keep)
     ratio = round(grid.spacing / unit)
     step = n - 1
-    kx = (ti[t_idx] * step + node % n) * ratio
-    ky = (tj[t_idx] * step + node // n) * ratio
-    both = np.unique(np.column_stack([kx, ky]), axis=0)
-    return KeptNodes(both[:, 0], both[:, 1])
+    i = ti[t_idx] * step + node % n - grid.i0
+    j = tj[t_idx] * step + node // n - grid.j0
+    # Neighbouring tiles share their edge nodes: marked on the lattice (x-major, as the
+    # positions sort) rather than sorted out, which costs a sort of every kept node.
+    marked = np.zeros(grid.z.shape[::-1], bool)
+    marked[i, j] = True
+    ii, jj = np.nonzero(marked)
+    return KeptNodes((ii + grid.i0) * ratio, (jj + grid.j0) * ratio)

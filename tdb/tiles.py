@@ -48,6 +48,12 @@ def tile_key(i: NDArray[np.integer], j: NDArray[np.integer]) -> NDArray[np.int64
     return np.asarray(i, np.int64) * (1 << 32) + (np.asarray(j, np.int64) & 0xFFFFFFFF)
 
 
+def key_pair(key: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The integer pairs (i, j) of :func:`tile_key`'s keys."""
+    key = np.asarray(key, np.int64)
+    return key >> 32, (key & 0xFFFFFFFF).astype(np.uint32).view(np.int32).astype(np.int64)
+
+
 class TileIndex:
     """Position of tiles by their integer indices (i, j), looked up many times: through a raster
     over their extent where they fill most of it (an area's tiles do: no sort), else sorted once."""
