@@ -14,13 +14,16 @@ buffer of its neighbours' points, in parallel, and stored as one version.
 4. **Store** everything as one version, in one transaction.
 
 **Why the buffer is 64 m.** A point's ground label depends on the points within the ground
-filter's largest opening window (16 m radius) and on the surface the refinement passes rebuild
-from their neighbours; the dense model bridges holes (roofs, water) by a triangulation across
-them; the 16 m level samples a model smoothed over 2 m. Four windows (64 m) hold all of these
-for holes up to about 64 m across. What can still differ: object groups larger than the buffer
-(an embankment several hundred metres long is judged by its whole extent). The flat threshold
-is one for the whole survey, measured as a one-piece ingest measures it, on the fullest square
-of a fixed lattice (:mod:`ingest.noise`), unless one is given. How often tiles
+filter's openings (windows up to 16 m radius, 68 m reach in all) and on the surface the
+refinement passes rebuild from their neighbours, which bridges holes of up to 64 m and takes the
+nearest ground across wider ones (``AutoParams.max_bridge``); the dense model bridges holes
+(roofs, water) by a triangulation across them; the 16 m level samples a model smoothed over 2 m.
+64 m holds these for holes up to 64 m across. Each block's filter grid covers its read box within
+the survey's bounds, so that it ends where the whole survey's does, not where its own points
+do. What can still differ: object groups larger than the buffer (an embankment several hundred
+metres long is judged by its whole extent). The flat threshold is one for the whole survey,
+measured as a one-piece ingest measures it, on the fullest square of a fixed lattice
+(:mod:`ingest.noise`), unless one is given. How often tiles
 differ from a one-piece ingest of the same area is measured by ``tests/test_blocked.py`` and
 ``benchmarks/blocked_ingest.py``.
 """
@@ -99,11 +102,14 @@ class Blocking:
 @dataclass(frozen=True)
 class _Block:
     """One block's square (x0, y0, x1, y1) and the box its points are read from; ``closed``: whether
-    its east and north edges are the survey's (its kept points there are its own)."""
+    its east and north edges are the survey's (its kept points there are its own); ``extent``: the
+    box its ground filter's grid covers, the read box within the survey's bounds (where the
+    whole survey's grid would end too)."""
 
     core: Box
     grown: Box
     closed: tuple[bool, bool] = (False, False)
+    extent: Box | None = None
 
 
 def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and how)
@@ -142,7 +148,7 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     crs = as_crs(o.crs) if o.crs is not None else catalog.crs
     _check_metric(crs)
     area = _area(catalog.bounds, b.region)
-    blocks = _blocks(area, b)
+    blocks = _blocks(area, b, survey=catalog.bounds)
     spool = Spool.beside(db, version)
     run = _run(catalog, o, b)
     settings = spool.resume(run) if resume else {}
@@ -231,8 +237,10 @@ def _check_metric(crs: Any) -> None:
         )
 
 
-def _blocks(bounds: Box, b: Blocking) -> list[_Block]:
-    """The blocks over ``bounds``; with a region, cut to it (``bounds`` is then on the 16 m tiles)."""
+def _blocks(bounds: Box, b: Blocking, *, survey: Box | None = None) -> list[_Block]:
+    """The blocks over ``bounds``; with a region, cut to it (``bounds`` is then on the 16 m tiles).
+    ``survey``: the whole survey's bounds (default ``bounds``)."""
+    survey = survey or bounds
     x0, y0, x1, y1 = bounds
     xs = np.arange(np.floor(x0 / b.block) * b.block, x1 + 1e-9, b.block)
     ys = np.arange(np.floor(y0 / b.block) * b.block, y1 + 1e-9, b.block)
@@ -242,12 +250,19 @@ def _blocks(bounds: Box, b: Blocking) -> list[_Block]:
             core = (float(bx), float(by), float(bx + b.block), float(by + b.block))
             if b.region is not None:
                 core = (max(core[0], x0), max(core[1], y0), min(core[2], x1), min(core[3], y1))
-            out.append(_Block(core, _grown(core, b.buffer), (core[2] >= x1, core[3] >= y1)))
+            grown = _grown(core, b.buffer)
+            out.append(_Block(core, grown, (core[2] >= x1, core[3] >= y1), _within(grown, survey)))
     return out
 
 
 def _grown(box: Box, by: float) -> Box:
     return (box[0] - by, box[1] - by, box[2] + by, box[3] + by)
+
+
+def _within(box: Box, bounds: Box) -> Box:
+    """``box`` cut to ``bounds`` (``box`` itself where they do not meet)."""
+    cut = (max(box[0], bounds[0]), max(box[1], bounds[1]), min(box[2], bounds[2]), min(box[3], bounds[3]))
+    return cut if cut[0] <= cut[2] and cut[1] <= cut[3] else box
 
 
 @dataclass(frozen=True)
@@ -421,7 +436,11 @@ def _pilot_threshold(
             parts.append(rec[_in_square(rec, blk.core) & _in_square(rec, around)])
     rec = np.concatenate(parts)
     cloud = from_records(rec[np.lexsort((rec["z"], rec["y"], rec["x"]))], crs=crs, source="pilot square")
-    ground = classify_ground(to_metres(cloud), method=o.method, exclude=o.exclude, density=o.density)
+    extents = np.array([blk.extent or blk.grown for blk in blocks])
+    survey: Box = (*extents[:, :2].min(axis=0).tolist(), *extents[:, 2:].max(axis=0).tolist())
+    ground = classify_ground(
+        to_metres(cloud), method=o.method, exclude=o.exclude, density=o.density, extent=_within(around, survey)
+    )
     report("ground noise", 1, 1)
     return pilot_threshold(cloud.xyz[ground], square)
 
@@ -447,7 +466,7 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
     # A worker's warnings would not reach the caller: what they say is returned and said once.
     with one_blas_thread(), warnings.catch_warnings():
         warnings.simplefilter("ignore", TdbWarning)
-        s = survey(cloud, options=o)
+        s = survey(cloud, options=dataclasses.replace(o, extent=blk.extent))
     m = s.model
     levels = {}
     for level, t in m.levels.items():

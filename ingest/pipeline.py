@@ -19,6 +19,7 @@ from ingest.noise import fullest_square, ground_noise, pilot_threshold, square_c
 from ingest.objects import Objects, find_objects
 from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
+from tdb.bbox import Box
 from tdb.classes import NOISE, excluded, parse_classes, user_classes
 from tdb.cloud import PointCloud
 from tdb.database import Database, Version, VersionInfo, check_version_name
@@ -58,6 +59,8 @@ class IngestOptions:
     ``"7,18,65"``) are never ground; the default is ASPRS noise (:data:`tdb.classes.NOISE`).
     ``density`` is the survey's points per m² (None: measured), given where a survey is
     modelled in parts. ``objects``: find and store the trees and buildings (seed §2.2–2.3).
+    ``extent`` (x0, y0, x1, y1, m) is the box the ground filter's grid covers (None: the cloud's
+    own extent); given where a survey is modelled in parts: a part's box within the survey's.
     """
 
     crs: Any = None
@@ -69,6 +72,7 @@ class IngestOptions:
     exclude: tuple[int, ...] = NOISE
     density: float | None = None
     objects: bool = True
+    extent: Box | None = None
 
     def __post_init__(self) -> None:
         # user text is accepted and checked once, here
@@ -97,7 +101,11 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
     report = or_silent(progress)
     report("units", 0, 1)
     metric = to_metres(cloud, assume_metres=o.assume_metres)
-    ground = classify_ground(metric, method=o.method, progress=report, exclude=o.exclude, density=o.density)
+    b = metric.bounds
+    extent = o.extent if o.extent is not None else (b[0], b[1], b[3], b[4])
+    ground = classify_ground(
+        metric, method=o.method, progress=report, exclude=o.exclude, density=o.density, extent=extent
+    )
     report("dense model", 0, 1)
     gxyz = metric.xyz[ground]
     dtm = dense_model(gxyz, resolution=o.resolution, crs=metric.crs)

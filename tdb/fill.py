@@ -126,12 +126,15 @@ def weighted_lines(
     g_row: NDArray[np.floating[Any]],
     v_col: NDArray[np.floating[Any]],
     g_col: NDArray[np.floating[Any]],
+    *,
+    max_gap: float = np.inf,
 ) -> NDArray[np.floating[Any]]:
     """The row and column lines' values at holes, weighted by the inverse square of their gaps
-    (NaN where neither line brackets the hole)."""
+    (NaN where neither line brackets the hole); a line across a gap of more than ``max_gap``
+    cells counts as not bracketing it."""
     # unbracketed lines have gap inf, weight 0
-    w_row = 1.0 / np.maximum(g_row, 1.0) ** 2
-    w_col = 1.0 / np.maximum(g_col, 1.0) ** 2
+    w_row = np.where(g_row <= max_gap, 1.0 / np.maximum(g_row, 1.0) ** 2, 0.0)
+    w_col = np.where(g_col <= max_gap, 1.0 / np.maximum(g_col, 1.0) ** 2, 0.0)
     weight = w_row + w_col
     line = (np.nan_to_num(v_row) * w_row + np.nan_to_num(v_col) * w_col) / np.where(weight > 0, weight, 1.0)
     return np.where(weight > 0, line, np.nan)

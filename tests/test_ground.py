@@ -228,3 +228,35 @@ def test_ground_under_a_canopy_is_no_low_outlier(seed, share, density):
     good = ground.copy()
     good[bad] = False
     assert not flagged[good].any()
+
+
+@pytest.mark.slow
+def test_a_part_filtered_in_its_box_labels_its_square_as_the_whole_survey_does():
+    """FSite5, a 512 m square in the south of the survey where the points stop short of the part's
+    box and wide holes cross its buffer: read with a 64 m buffer and filtered on a grid over its
+    box within the survey's bounds, the square's labels are those of the whole survey's filter."""
+    from ingest.ground.outliers import point_density
+
+    cloud = read(data_file("isprs", "FSite5_orig-utm.laz"))
+    xy = cloud.xyz[:, :2]
+    density = point_density(xy)
+    whole = classify_ground(cloud, density=density)
+    sx, sy, side, buffer = 494592.0, 5419520.0, 512.0, 64.0
+    part = np.flatnonzero(
+        (xy[:, 0] >= sx - buffer)
+        & (xy[:, 0] < sx + side + buffer)
+        & (xy[:, 1] >= sy - buffer)
+        & (xy[:, 1] < sy + side + buffer)
+    )
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    box = (
+        max(sx - buffer, lo[0]),
+        max(sy - buffer, lo[1]),
+        min(sx + side + buffer, hi[0]),
+        min(sy + side + buffer, hi[1]),
+    )
+    piece = classify_ground(cloud.take(part), density=density, extent=box)
+    p = xy[part]
+    square = (p[:, 0] >= sx) & (p[:, 0] < sx + side) & (p[:, 1] >= sy) & (p[:, 1] < sy + side)
+    assert square.sum() > 40_000
+    assert np.array_equal(whole[part][square], piece[square])

@@ -29,6 +29,7 @@ def classify_ground(
     progress: Progress | None = None,
     exclude: Iterable[int] = NOISE,
     density: float | None = None,
+    extent: tuple[float, float, float, float] | None = None,
 ) -> NDArray[np.bool_]:
     """Ground mask of a point cloud (coordinates in metres).
 
@@ -43,6 +44,9 @@ def classify_ground(
         (default ASPRS noise, 7 and 18; see :mod:`tdb.classes`). Arrays carry no classes.
     density : the survey's points per m² the filter sizes its outlier test to (of the points it
         sees: :func:`ingest.ground.outliers.point_density`); None: measured on them.
+    extent : (xmin, ymin, xmax, ymax) the default filter's grid covers, holding every point;
+        None: the points' own extent. Given where a survey is filtered in parts, so that a part's
+        grid ends where the whole survey's does (or in its buffer), not at its own points.
 
     Raises
     ------
@@ -54,23 +58,29 @@ def classify_ground(
     drop = excluded(cloud.classification, exclude)
     if not drop.any():
         check_spread(cloud)
-        return _ground(cloud, m, progress, density)
+        return _ground(cloud, m, progress, density, extent)
     use = np.flatnonzero(~drop)
     kept = cloud.take(use)
     check_spread(kept)
     ground = np.zeros(len(drop), bool)
-    ground[use] = _ground(kept, m, progress, density)
+    ground[use] = _ground(kept, m, progress, density, extent)
     return ground
 
 
 def _ground(
-    cloud: PointCloud, m: GroundMethod, progress: Progress | None, density: float | None
+    cloud: PointCloud,
+    m: GroundMethod,
+    progress: Progress | None,
+    density: float | None,
+    extent: tuple[float, float, float, float] | None,
 ) -> NDArray[np.bool_]:
     xyz = cloud.xyz
     report = or_silent(progress)
     report(STEP, 0, 1)
     if m is GroundMethod.AUTO:
-        ground = auto_ground(xyz, returns=(cloud.return_number, cloud.number_of_returns), density=density)
+        ground = auto_ground(
+            xyz, returns=(cloud.return_number, cloud.number_of_returns), density=density, extent=extent
+        )
         report(STEP, 1, 1)
         return ground
     # The papers have no outlier step; both use the default filter's (see docs/ground.md):

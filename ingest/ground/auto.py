@@ -5,7 +5,7 @@
    is an object where the opening removes more than the slope allows for that
    window (the progressive morphological idea of Zhang et al. and SMRF).
 3. Refinement: the seed ground becomes a surface posted at the cell corners
-   (:func:`ingest.ground.grids.corner_heights`, holes bridged by straight lines,
+   (:func:`ingest.ground.grids.corner_heights`, holes up to 64 m across bridged by straight lines,
    :func:`tdb.fill.fill_lines` then :func:`tdb.fill.fill_nearest`, in later passes only where cells changed,
    :mod:`ingest.ground.refill`) and every point is judged by its height
    above that surface against a threshold that grows with the local slope; the
@@ -55,9 +55,11 @@ class AutoParams:
     threshold_spacings: float = 0.2  # ... plus this much per metre of point spacing
     slope_scale: float = 1.0  # extra threshold per unit of local surface slope
     below: float = 2.0  # points this far below the surface are not ground (m)
-    refinements: int = 8  # at most; fewer once a pass changes under ``settled`` of the labels
-    settled: float = 2e-4
-    stage_passes: int = 1  # refinement passes at most after a stage below hands over more ground
+    # widest hole (m) the surface bridges by straight lines; a wider one takes the nearest
+    # ground, so that what a point is judged against lies within this reach of it
+    max_bridge: float = 64.0
+    refinements: int = 8  # passes after the first, fewer only where one changes nothing
+    stage_passes: int = 1  # refinement passes after a stage below hands over more ground
     pit_window: float = 8.0  # widest low-outlier cluster (m, radius)
     pit_slope: float = 3.0  # pit walls steeper than this, beyond pit_depth, are not terrain
     pit_depth: float = 2.0
@@ -94,6 +96,7 @@ def auto_ground(
     params: AutoParams | None = None,
     returns: tuple[NDArray[np.integer[Any]], NDArray[np.integer[Any]]] | None = None,
     density: float | None = None,
+    extent: tuple[float, float, float, float] | None = None,
 ) -> NDArray[np.bool_]:
     """Ground mask by the default filter (one parameter set for all data).
 
@@ -106,6 +109,10 @@ def auto_ground(
         where every pulse has one) a wall needs open sky over part of it.
     density : the survey's points per m² (:func:`ingest.ground.outliers.point_density`); None:
         measured on ``xyz``.
+    extent : (xmin, ymin, xmax, ymax) the seed grid covers (holding every point); None: the
+        points' extent. The grid's empty cells are filled from the nearest data, its edges
+        extend the data outward: a part of a survey filtered with its own extent would see
+        another edge than the whole survey does, wherever its points end short of its box.
     """
     p = params or AutoParams()
     xyz = np.asarray(xyz, float)
@@ -121,7 +128,10 @@ def auto_ground(
     # Between sparse points the interpolated surface misses more of the terrain's relief.
     threshold = p.threshold + p.threshold_spacings / np.sqrt(density)
     pts = xyz[keep]
-    grid = Grid.covering(pts[:, :2], p.cell)
+    xy = pts[:, :2]
+    grid = Grid.covering(
+        xy if extent is None else np.array([extent[:2], extent[2:], xy.min(axis=0), xy.max(axis=0)]), p.cell
+    )
     cells = CellSort.of(grid, pts)
     idx = cells.lowest()
     zmin = heights_of(idx, pts)
@@ -135,10 +145,9 @@ def auto_ground(
     # surface beside it; with the slope's allowance too, the surface climbed a thicket's top
     # one band per pass, as it climbs a steep flank.
     rejoin = ~objects[grid.index(pts[:, :2])] if p.flat_rejoin else np.ones(len(pts), bool)
-    is_ground = np.zeros(len(pts), bool)
     # later passes change few cells of the surface: only their runs of holes are filled again
-    lines, nearest = LineFill(), NearestFill()
-    # Once the passes settle, each stage may hand them more ground, once: steep-sided ridges,
+    lines, nearest = LineFill(max_gap=p.max_bridge / p.cell), NearestFill()
+    # Once the passes are done, each stage may hand them more ground, once: steep-sided ridges,
     # dikes and embankment crests (long, narrow, low groups of object cells), then hills
     # (groups that rise smoothly out of the ground).
     stages_run = 0
@@ -147,12 +156,14 @@ def auto_ground(
         passes -= 1
         surface, slope_map = ground_surface(grid, pts, current, lines=lines, nearest=nearest)
         h = pts[:, 2] - at_points(surface)
-        before = is_ground
         is_ground = (h <= threshold + p.slope_scale * at_points(slope_map)) & (h >= -p.below)
         # The next surface rests on the lowest ground point per cell: noise and
         # low clutter among the accepted points would otherwise lift it.
-        current = cells.lowest(is_ground & (rejoin | (h <= threshold)))
-        if np.count_nonzero(before != is_ground) >= p.settled * len(pts) and passes > 0:
+        before, current = current, cells.lowest(is_ground & (rejoin | (h <= threshold)))
+        # All the passes, stopped early only at a fixed point (where more would repeat this one):
+        # a stop once few labels change, counted over the survey, ended a block and the whole
+        # survey after different passes.
+        if passes > 0 and not np.array_equal(before, current):
             continue
         found = np.zeros(grid.shape, bool)
         while stages_run < 2 and not found.any():

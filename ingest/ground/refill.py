@@ -50,8 +50,9 @@ class LineFill:
     of the cells changed it fills the whole raster. It keeps six rasters of the last call.
     """
 
-    def __init__(self, *, full_share: float = 0.05) -> None:
+    def __init__(self, *, full_share: float = 0.05, max_gap: float = np.inf) -> None:
         self.full_share = full_share
+        self.max_gap = max_gap
         self._last: NDArray[np.floating[Any]] | None = None
         # the last output and each hole's row and column line (value, gap), flat
         empty: NDArray[np.floating[Any]] = np.zeros(0)
@@ -79,7 +80,9 @@ class LineFill:
         out = self._out
         out[changed] = raster.ravel()[changed]
         redo = np.union1d(at_rows, at_cols)
-        out[redo] = weighted_lines(self._v_row[redo], self._g_row[redo], self._v_col[redo], self._g_col[redo])
+        out[redo] = weighted_lines(
+            self._v_row[redo], self._g_row[redo], self._v_col[redo], self._g_col[redo], max_gap=self.max_gap
+        )
         self._last = raster.copy()
         return out.reshape(raster.shape).copy()
 
@@ -90,6 +93,6 @@ class LineFill:
             whole[holes] = at_holes
         self._v_row, self._g_row, self._v_col, self._g_col = kept
         out = raster.copy().ravel()
-        out[holes] = weighted_lines(*lines)
+        out[holes] = weighted_lines(*lines, max_gap=self.max_gap)
         self._last, self._out = raster.copy(), out
         return out.reshape(raster.shape).copy()
