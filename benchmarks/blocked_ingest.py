@@ -62,6 +62,33 @@ def _agreement(db: Any, a: str, b: str) -> dict[str, float]:
     return out
 
 
+MAP = Path(__file__).resolve().parents[1] / "docs" / "images" / "blocked-vs-whole.png"
+
+
+def _agreement_map(db: Any, a: str, b: str, block: float) -> None:
+    """The 2 m tiles of ``b`` against ``a``, with the block edges: a seam would show along them."""
+    from tdb.pictures import agreement_map
+
+    xa, ya, ca = db.tiles(a, level=2)
+    xb, yb, cb = db.tiles(b, level=2)
+    kb = dict(zip(zip(xb.tolist(), yb.tolist()), cb.tolist()))
+    same = np.array([kb.get(k) == c for k, c in zip(zip(xa.tolist(), ya.tolist()), ca.tolist())])
+    edges = tuple(
+        np.arange(np.ceil(lo / block) * block, hi, block)
+        for lo, hi in ((xa.min(), xa.max()), (ya.min(), ya.max()))
+    )
+    agreement_map(
+        MAP,
+        xa,
+        ya,
+        same,
+        level=2,
+        edges=edges,
+        crs=db.crs(a),
+        title=f"Blocked ingest ({block:g} m blocks) against one piece: 2 m tiles whose category differs",
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--file", default="isprs/FSite5_orig-utm.laz")
@@ -108,6 +135,7 @@ def main() -> None:
             "agreement_same_threshold": _agreement(db, "whole", "blocks_same_threshold"),
             "rmse_m": {v: db.version(v).stats.reduction.rmse_m for v in ("whole", "blocks")},
         }
+        _agreement_map(db, "whole", "blocks", args.block)
     print(doc)
     print(save("blocked_ingest", doc))
 

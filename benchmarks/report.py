@@ -346,6 +346,11 @@ def blocked_section(out: list[str]) -> None:
             f"One worker per core against one worker: **{doc['speedup_all_cores']:.2f} ×** "
             "(target ≥ 1.8 × on 2 cores)."
         )
+    if (ROOT / "docs" / "images" / "blocked-vs-whole.png").exists():
+        out += [
+            "",
+            "![Blocked run against the whole one, block edges dashed](images/blocked-vs-whole.png)",
+        ]
     out.append("")
 
 

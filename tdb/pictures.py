@@ -388,3 +388,51 @@ def _grown(bounds: Any) -> tuple[float, float, float, float]:
     x0, y0, x1, y1 = (float(v) for v in bounds)
     pad = 0.05 * max(x1 - x0, y1 - y0, 10.0)
     return (x0 - pad, y0 - pad, x1 + pad, y1 + pad)
+
+
+def agreement_map(  # noqa: PLR0913 (the tiles, where they differ, and the frame)
+    path: str | os.PathLike[str],
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    same: NDArray[np.bool_],
+    *,
+    level: int,
+    edges: tuple[NDArray[np.float64], NDArray[np.float64]],
+    crs: Any,
+    title: str,
+) -> None:
+    """Tiles of ``level`` (corners ``xg``, ``yg``) that two models agree on (grey) and differ on
+    (red), with lines at ``edges`` (x positions, y positions: where the models were cut), so that
+    a seam along a cut shows."""
+    from matplotlib.colors import ListedColormap
+
+    x0, y0 = int(xg.min()), int(yg.min())
+    x1, y1 = int(xg.max()) + level, int(yg.max()) + level
+    raster = np.zeros(((y1 - y0) // level, (x1 - x0) // level), np.uint8)
+    raster[(yg - y0) // level, (xg - x0) // level] = np.where(same, 1, 2)
+    bounds = (float(x0), float(y0), float(x1), float(y1))
+    fig = _figure(*_map_size(bounds))
+    ax = fig.add_subplot()
+    colours = ListedColormap([(1, 1, 1), (0.78, 0.78, 0.78), (0.85, 0.1, 0.1)])
+    ax.imshow(
+        raster, origin="lower", extent=(x0, x1, y0, y1), cmap=colours, vmin=0, vmax=2, interpolation="nearest"
+    )
+    # a differing tile is a pixel or two at this scale: ringed so that none is lost
+    dx, dy = xg[~same] + level / 2, yg[~same] + level / 2
+    ax.scatter(dx, dy, s=14, facecolors="none", edgecolors=(0.85, 0.1, 0.1), lw=0.6)
+    for x in edges[0]:
+        ax.axvline(x, color=(0.1, 0.3, 0.8), lw=0.8, ls="--")
+    for y in edges[1]:
+        ax.axhline(y, color=(0.1, 0.3, 0.8), lw=0.8, ls="--")
+    _map_frame(ax, crs, bounds)
+    _legend(
+        ax,
+        [
+            (f"same category ({int(same.sum()):,})", (0.78, 0.78, 0.78), "patch"),
+            (f"different ({int((~same).sum()):,})", (0.85, 0.1, 0.1), "patch"),
+            ("block edges", (0.1, 0.3, 0.8), "line"),
+        ],
+        title=f"{level} m tiles",
+    )
+    ax.set_title(title, fontsize=10)
+    _save(fig, path, dpi=100, bbox_inches="tight")
