@@ -37,7 +37,7 @@ import tempfile
 import warnings
 from collections import Counter
 from collections.abc import Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
@@ -350,7 +350,8 @@ def _model(  # noqa: PLR0913 (the blocks, their points, how, and where results g
 ) -> None:
     """Model the blocks not in ``skip``, each result kept in ``spool`` as it comes."""
     jobs = [(k, blk, path, o, crs) for k, (blk, path) in enumerate(zip(blocks, files)) if k not in skip]
-    jobs = [j for j in jobs if j[2].exists()]
+    # the largest blocks first, so that no worker is left with a big one while the others idle
+    jobs = sorted((j for j in jobs if j[2].exists()), key=lambda j: -j[2].stat().st_size)
     report.start([j[0] for j in jobs])
     if b.scheduler is not None:
         results = _on_cluster(jobs, b.scheduler)
@@ -360,7 +361,8 @@ def _model(  # noqa: PLR0913 (the blocks, their points, how, and where results g
         # spawn: a forked child would inherit the parent's threads and locks
         pool = ProcessPoolExecutor(workers, mp_context=get_context("spawn"), initializer=one_blas_thread_here)
         with pool:
-            for k, r in pool.map(_one_block_args, jobs):
+            for future in as_completed([pool.submit(_one_block_args, job) for job in jobs]):
+                k, r = future.result()
                 spool.put(k, r)
                 report.finished(k)
         return
