@@ -50,14 +50,18 @@ def _run(kind: str, src: str, db_path: str, block: float, threshold: float | Non
     print(json.dumps({"seconds": seconds, "peak_rss_mib": own, "worker_peak_rss_mib": workers}))
 
 
+def _same(db: Any, a: str, b: str, level: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The tiles of ``a`` at ``level`` (corners) and whether ``b`` gives each the same category."""
+    xa, ya, ca = db.tiles(a, level=level)
+    xb, yb, cb = db.tiles(b, level=level)
+    kb = dict(zip(zip(xb.tolist(), yb.tolist()), cb.tolist()))
+    return xa, ya, np.array([kb.get(k) == c for k, c in zip(zip(xa.tolist(), ya.tolist()), ca.tolist())])
+
+
 def _agreement(db: Any, a: str, b: str) -> dict[str, float]:
     out = {}
     for level in LEVELS:
-        xa, ya, ca = db.tiles(a, level=level)
-        xb, yb, cb = db.tiles(b, level=level)
-        ka = dict(zip(zip(xa.tolist(), ya.tolist()), ca.tolist()))
-        kb = dict(zip(zip(xb.tolist(), yb.tolist()), cb.tolist()))
-        out[f"same_{level}m_pct"] = 100 * float(np.mean([ka[k] == kb.get(k) for k in ka]))
+        out[f"same_{level}m_pct"] = 100 * float(np.mean(_same(db, a, b, level)[2]))
     out["kept_2m_points_ratio"] = len(db.points(b, level=2)[0]) / max(len(db.points(a, level=2)[0]), 1)
     return out
 
@@ -69,10 +73,7 @@ def _agreement_map(db: Any, a: str, b: str, block: float) -> None:
     """The 2 m tiles of ``b`` against ``a``, with the block edges: a seam would show along them."""
     from tdb.pictures import agreement_map
 
-    xa, ya, ca = db.tiles(a, level=2)
-    xb, yb, cb = db.tiles(b, level=2)
-    kb = dict(zip(zip(xb.tolist(), yb.tolist()), cb.tolist()))
-    same = np.array([kb.get(k) == c for k, c in zip(zip(xa.tolist(), ya.tolist()), ca.tolist())])
+    xa, ya, same = _same(db, a, b, 2)
     edges = tuple(
         np.arange(np.ceil(lo / block) * block, hi, block)
         for lo, hi in ((xa.min(), xa.max()), (ya.min(), ya.max()))

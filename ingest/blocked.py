@@ -108,8 +108,8 @@ class _Block:
 
     core: Box
     grown: Box
-    closed: tuple[bool, bool] = (False, False)
-    extent: Box | None = None
+    closed: tuple[bool, bool]
+    extent: Box
 
 
 def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and how)
@@ -251,18 +251,13 @@ def _blocks(bounds: Box, b: Blocking, *, survey: Box | None = None) -> list[_Blo
             if b.region is not None:
                 core = (max(core[0], x0), max(core[1], y0), min(core[2], x1), min(core[3], y1))
             grown = _grown(core, b.buffer)
-            out.append(_Block(core, grown, (core[2] >= x1, core[3] >= y1), _within(grown, survey)))
+            extent = clip_bbox(grown, survey, what="the survey")
+            out.append(_Block(core, grown, (core[2] >= x1, core[3] >= y1), extent))
     return out
 
 
 def _grown(box: Box, by: float) -> Box:
     return (box[0] - by, box[1] - by, box[2] + by, box[3] + by)
-
-
-def _within(box: Box, bounds: Box) -> Box:
-    """``box`` cut to ``bounds`` (``box`` itself where they do not meet)."""
-    cut = (max(box[0], bounds[0]), max(box[1], bounds[1]), min(box[2], bounds[2]), min(box[3], bounds[3]))
-    return cut if cut[0] <= cut[2] and cut[1] <= cut[3] else box
 
 
 @dataclass(frozen=True)
@@ -438,10 +433,12 @@ def _pilot_threshold(
             parts.append(rec[_in_square(rec, blk.core) & _in_square(rec, around)])
     rec = np.concatenate(parts)
     cloud = from_records(rec[np.lexsort((rec["z"], rec["y"], rec["x"]))], crs=crs, source="pilot square")
-    extents = np.array([blk.extent or blk.grown for blk in blocks])
+    # the blocks' extents together span the survey's bounds, where a one-piece grid ends
+    extents = np.array([blk.extent for blk in blocks])
     survey: Box = (*extents[:, :2].min(axis=0).tolist(), *extents[:, 2:].max(axis=0).tolist())
+    extent = clip_bbox(around, survey, what="the survey")
     ground = classify_ground(
-        to_metres(cloud), method=o.method, exclude=o.exclude, density=o.density, extent=_within(around, survey)
+        to_metres(cloud), method=o.method, exclude=o.exclude, density=o.density, extent=extent
     )
     report("ground noise", 1, 1)
     return pilot_threshold(cloud.xyz[ground], square)

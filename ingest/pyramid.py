@@ -83,8 +83,8 @@ def _merged(
     kept: list[KeptNodes], bits: list[int]
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]:
     """The distinct positions of the levels' kept nodes in x-major order, each with the OR of the
-    bits of the levels that keep it: on a raster over their extent, as every level's nodes lie on
-    the finest lattice (and each level's are distinct)."""
+    bits of the levels that keep it: marked on a raster over their extent (every level's nodes lie
+    on the finest lattice) rather than sorted out, which costs a sort of every kept node."""
     kept = [k for k in kept if len(k.kx)]
     if not kept:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.uint8)

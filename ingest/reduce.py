@@ -181,16 +181,11 @@ def kept_nodes(
     n: int,
     unit: float,
 ) -> KeptNodes:
-    """Unique positions of the kept nodes (T, n*n) of tiles (ti, tj), in units of ``unit``,
-    the finest node spacing."""
+    """Positions of the kept nodes (T, n*n) of tiles (ti, tj), in units of ``unit``, the finest
+    node spacing; a node two tiles share (their edge) comes once from each tile keeping it."""
     t_idx, node = np.nonzero(keep)
     ratio = round(grid.spacing / unit)
     step = n - 1
-    i = ti[t_idx] * step + node % n - grid.i0
-    j = tj[t_idx] * step + node // n - grid.j0
-    # Neighbouring tiles share their edge nodes: marked on the lattice (x-major, as the
-    # positions sort) rather than sorted out, which costs a sort of every kept node.
-    marked = np.zeros(grid.z.shape[::-1], bool)
-    marked[i, j] = True
-    ii, jj = np.nonzero(marked)
-    return KeptNodes((ii + grid.i0) * ratio, (jj + grid.j0) * ratio)
+    kx = (ti[t_idx] * step + node % n) * ratio
+    ky = (tj[t_idx] * step + node // n) * ratio
+    return KeptNodes(kx, ky)

@@ -133,8 +133,11 @@ def weighted_lines(
     (NaN where neither line brackets the hole); a line across a gap of more than ``max_gap``
     cells counts as not bracketing it."""
     # unbracketed lines have gap inf, weight 0
-    w_row = np.where(g_row <= max_gap, 1.0 / np.maximum(g_row, 1.0) ** 2, 0.0)
-    w_col = np.where(g_col <= max_gap, 1.0 / np.maximum(g_col, 1.0) ** 2, 0.0)
+    w_row = 1.0 / np.maximum(g_row, 1.0) ** 2
+    w_col = 1.0 / np.maximum(g_col, 1.0) ** 2
+    if np.isfinite(max_gap):
+        w_row[g_row > max_gap] = 0.0
+        w_col[g_col > max_gap] = 0.0
     weight = w_row + w_col
     line = (np.nan_to_num(v_row) * w_row + np.nan_to_num(v_col) * w_col) / np.where(weight > 0, weight, 1.0)
     return np.where(weight > 0, line, np.nan)
