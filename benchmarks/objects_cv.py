@@ -44,9 +44,10 @@ DENSITIES = (2.0, 8.0, 20.0)
 SIZE = 300.0
 FOREST = "las/MixedConifer.laz"
 VEGETATION_FILES = ("las/append-bug.laz", "epochs/TTP_2019.laz")
+# The library's defaults first: of settings that score alike, the first is chosen.
 GRID: dict[str, tuple[Any, ...]] = {
-    "scales": ((0.5, 1.0, 2.0), (0.35, 0.7, 1.4), (0.25, 0.5, 1.0)),
-    "noise": (0.1, 0.2, 0.4),
+    "scales": ((0.35, 0.7, 1.4), (0.5, 1.0, 2.0), (0.25, 0.5, 1.0)),
+    "noise": (0.4, 0.2, 0.1),
 }
 BASELINE_GRID = {"min_distance": (1.0, 1.5, 2.0, 3.0), "sigma": (0.5, 1.0), "cell": (0.5, 1.0)}  # m
 

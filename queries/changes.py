@@ -146,6 +146,8 @@ def _may_move(na: NDArray[np.float64], nb: NDArray[np.float64], lod: NDArray[np.
     So a corner counts when it moved, an edge middle when the ranges of its edge's stored
     nodes allow it, and the centre when the tile's ranges do.
     """
+    if len(na) == 0:
+        return np.zeros(0, np.intp)
     last = SUBGRID - 1
     # Tiles last: every reduction below runs across whole rows of tiles.
     a, b = (np.ascontiguousarray(np.moveaxis(n, 0, -1)) for n in (na, nb))

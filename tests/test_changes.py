@@ -258,3 +258,11 @@ def test_dem_of_difference_shows_the_new_mound_and_nothing_else(tmp_path):
     assert coarse.data.size <= 1000 and (coarse.cell / 0.5).is_integer()
     with pytest.raises(InputError, match="share no tiles"):
         difference_of_surfaces(db, "a", "b", bbox=(0, 0, 10, 10))
+
+
+def test_no_tiles_to_judge_is_no_tile_moved() -> None:
+    """Growing a region may leave no unknown tiles beside it: judging none is an empty answer."""
+    from queries.changes import _may_move
+
+    empty = np.zeros((0, 5, 5))
+    assert _may_move(empty, empty, np.zeros(0)).shape == (0,)

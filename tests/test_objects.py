@@ -100,6 +100,56 @@ def test_scale_choice_splits_two_crowns_and_keeps_one() -> None:
     assert len(np.unique(choose_scales([whole, halves], one, 1.0, noise=0.05, min_cells=4))) == 1
 
 
+def test_a_low_crown_beside_a_tall_one_keeps_its_own_surface() -> None:
+    """The crown surface starts on the returns: a net started at the tallest neighbour began
+    metres above the low crown's returns, beyond their attraction, and bridged the two."""
+    from ingest.objects.trees import TreeParams, crown_surface
+
+    rows, cols = np.mgrid[0:24, 0:40]
+    x, y = cols * 0.7, rows * 0.7
+    tall = np.where(np.hypot(x - 8, y - 8) < 2.3, _dome(x, y, 8, 8, 24, 2.3), -np.inf)
+    low = np.where(np.hypot(x - 12.5, y - 8) < 3.2, _dome(x, y, 12.5, 8, 8.6, 3.2), -np.inf)
+    height = np.maximum(tall, low)
+    mask = np.isfinite(height)
+    height = np.where(mask, height, np.nan)
+    rng = np.random.default_rng(3)
+    height[mask & (rng.random(height.shape) < 0.3)] = np.nan  # cells no return fell in
+    surface = crown_surface(height, mask, 0.7, params=TreeParams())
+    # the cells at the foot of the tall crown may be lifted (as penetrations are); the rest not
+    on_low = mask & np.isfinite(height) & (np.hypot(x - 8, y - 8) > 2.3 + 3 * 0.7)
+    assert np.abs(surface[on_low] - height[on_low]).max() < 0.5
+
+
+@given(
+    slope=st.floats(0.2, 1.2),
+    angle=st.floats(0, np.pi),
+    seed=st.integers(0, 10_000),
+)
+@settings(max_examples=20, deadline=None)
+def test_a_gable_lies_on_planes_at_its_ridge_and_a_crown_nowhere(slope: float, angle: float, seed: int) -> None:
+    """Plane departure: a cell on a roof's ridge lies on one plane with its neighbours on one side."""
+    from scipy.spatial import cKDTree
+
+    from ingest.ground.grids import Grid
+    from ingest.objects.cover import CoverParams
+    from ingest.objects.heights import TopRaster
+
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 20, (800, 2))  # 2 points/m²
+    across = (xy[:, 0] - 10) * np.cos(angle) + (xy[:, 1] - 10) * np.sin(angle)
+    grid = Grid.covering(xy, 1.0)
+    cells = np.ones(grid.shape, bool)
+    roof = TopRaster.of(grid, xy, 8 - slope * np.abs(across) + rng.normal(0, 0.02, len(xy)))
+    ridge = np.abs(across) < 1.0
+    departure = roof.plane_departure(xy, cells).ravel()[roof.cells_of(xy[ridge])]
+    assert np.nanmedian(departure) < 0.05
+    # a canopy: crowns 3 m in radius, whose first returns reach a little way into them
+    nearest, _ = cKDTree(rng.uniform(0, 20, (16, 2))).query(xy)
+    canopy = 15 - 9 * np.minimum(nearest / 3, 1) ** 2 - rng.exponential(0.4, len(xy))
+    crown = TopRaster.of(grid, xy, canopy)
+    assert np.nanmedian(crown.plane_departure(xy, cells)) > CoverParams().roof_departure
+
+
 # --- the whole, on synthetic scenes -----------------------------------------------------------
 
 

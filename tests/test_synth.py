@@ -52,6 +52,17 @@ def test_off_terrain_points_are_above_ground_and_noise_below(small_scene, small_
     assert (dz[small_cloud.classification == NOISE] < -0.8).all()
 
 
+def test_roofs_stand_their_eave_height_over_the_ground_even_on_a_slope():
+    """A building stands on the highest ground under it: seed 12's 300 m scene puts one on a
+    slope that rises 8 m across its footprint, whose uphill roof lay under the ground."""
+    scene = make_scene(seed=12, size=300)
+    cloud = sample(scene, density=2, seed=12)
+    roof = cloud.classification == BUILDING
+    dz = cloud.z[roof] - ground_height(scene, cloud.x[roof], cloud.y[roof])
+    eave = min(b.height for b in scene.buildings)
+    assert dz.min() > eave - 0.15  # three times the sensor noise
+
+
 def test_density_is_as_asked():
     scene = make_scene(seed=2, size=200)
     cloud = sample(scene, density=5, seed=2)

@@ -44,8 +44,9 @@ class CoverParams:
     ``min_height`` (m): cells whose highest point is this far over the ground are classified
     (the paper's 2 m). ``cell_spacings``: texture cell size in pulse spacings (1.5: nine in
     ten cells hold a pulse). ``roof_departure`` (m): the largest median departure of a roof's
-    returns inside its border from their local plane (:meth:`TopRaster.plane_departure`): a
-    roof plane departs only by the returns' noise, a crown by decimetres to metres.
+    returns inside its border from their local plane, through the neighbours on whichever
+    side fit one best (:meth:`TopRaster.plane_departure`): a roof plane departs only by the
+    returns' noise, a crown by decimetres to metres.
     ``eave_tolerance`` (m): an edge cell whose highest return lies this close to the line
     through the two roof cells behind it is roof (the raster's error on a steep roof, slope
     × half a cell, is up to half a metre).
@@ -57,7 +58,7 @@ class CoverParams:
 
     min_height: float = 2.0
     cell_spacings: float = 1.5
-    roof_departure: float = 0.2
+    roof_departure: float = 0.1
     eave_tolerance: float = 0.5
     echo_share: float = 0.2
     min_building_area: float = 10.0

@@ -99,12 +99,14 @@ def crown_surface(
 ) -> NDArray[np.float64]:
     """The outer crown surface: the active contour relaxed onto the highest returns from above.
 
-    The net starts at the highest return among each cell's neighbours, just above the data,
-    so it needs few steps; empty cells (NaN) have no attraction and follow their neighbours.
-    Only the crowns' cells (``mask``) move: the gaps between crowns are no part of a crown.
+    The net starts on the data, an empty cell (NaN) at its nearest return, so that every cell
+    begins within its return's attraction: elasticity then lifts the net out of the
+    penetrations, and empty cells, which have no attraction, follow their neighbours. A net
+    started at the highest of each cell's neighbours began, beside a taller crown, metres
+    above a lower crown's returns, out of their reach, and bridged the two crowns. Only the
+    crowns' cells (``mask``) move: the gaps between crowns are no part of a crown.
     """
-    filled = fill_nearest(height)
-    start = ndimage.maximum_filter(filled, size=3, mode="nearest")
+    start = np.asarray(fill_nearest(height), np.float64)
     contour = ContourParams(max_iterations=params.iterations)
     return -relax_on(-height, -start, mask, cell, params.penetration, contour)
 

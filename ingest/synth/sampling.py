@@ -68,10 +68,7 @@ def sample_block(
         inside = free & shapely.contains_xy(b.footprint, x, y)
         if not inside.any():
             continue
-        base = float(
-            ground_height(scene, np.array([b.footprint.centroid.x]), np.array([b.footprint.centroid.y]))[0]
-        )
-        z = np.full(int(inside.sum()), base + b.height)
+        z = np.full(int(inside.sum()), _base(scene, b.footprint) + b.height)
         if b.roof == "gable":
             z += b.ridge_height * _gable(b.footprint, x[inside], y[inside])
         roof[inside] = z
@@ -104,6 +101,20 @@ def sample_block(
     low = rng.random(n) < LOW_NOISE_SHARE
     emit(low, zg[low] - rng.uniform(1, 30, int(low.sum())), NOISE, 1, 1)
     return {k: np.concatenate(v) if v else np.empty(0) for k, v in cols.items()}
+
+
+def _base(scene: Scene, footprint: shapely.Polygon, *, step: float = 1.0) -> float:
+    """The height a building stands on: the highest ground under its footprint (its corners and
+    a grid ``step`` m apart inside). On a slope its downhill walls are the taller; a base taken
+    at one point would put the uphill part of a large roof under the ground."""
+    x0, y0, x1, y1 = footprint.bounds
+    mx, my = np.meshgrid(np.arange(x0, x1 + step, step), np.arange(y0, y1 + step, step))
+    gx, gy = mx.ravel(), my.ravel()
+    inside = shapely.contains_xy(footprint, gx, gy)
+    corners = np.asarray(footprint.exterior.coords)
+    x = np.concatenate([gx[inside], corners[:, 0]])
+    y = np.concatenate([gy[inside], corners[:, 1]])
+    return float(ground_height(scene, x, y).max())
 
 
 def _gable(footprint: shapely.Polygon, x: NDArray, y: NDArray) -> NDArray:
