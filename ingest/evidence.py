@@ -8,6 +8,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from tdb.evidence import LEVEL, SUPPORT_SPACINGS, TileEvidence
+from tdb.raster import Raster
 from tdb.tiles import key_pair, tile_key
 
 NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic's six terms
@@ -54,24 +55,55 @@ def tile_evidence(
     yg: NDArray[np.int64],
     *,
     spacing: float,
+    surface: Raster,
 ) -> TileEvidence:
     """Evidence of the 2 m tiles ``xg``, ``yg`` from the ground returns ``ground_xyz``, for a
-    survey whose pulses lie ``spacing`` m apart.
+    survey whose pulses lie ``spacing`` m apart and the dense model ``surface`` made from them.
 
     A tile's lift is how far its highest ground return stands above its neighbourhood's lower
     envelope (:func:`envelope_lift`); a tile without any takes its neighbours' (3 × 3 tiles),
-    the gap saying the rest.
+    the gap saying the rest. Its depth is how far the surface stands above its lowest ground
+    return (:func:`tile_depth`).
     """
     xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
     if len(xg) == 0:
         return TileEvidence.empty()
     g = np.asarray(ground_xyz, float)
     lift = _tile_lift(g, xg, yg)
+    depth = tile_depth(g, surface, xg, yg)
     radius = SUPPORT_SPACINGS * spacing
     distance = _node_distance(g, xg, yg, radius)
     support = (distance <= radius).mean(axis=1)
     gap = np.maximum(distance - radius, 0.0).mean(axis=1)
-    return TileEvidence(xg, yg, lift.astype(np.float32), gap.astype(np.float32), support.astype(np.float32))
+    return TileEvidence(xg, yg, *(a.astype(np.float32) for a in (lift, gap, depth, support)))
+
+
+def tile_depth(
+    ground_xyz: NDArray[np.float64], surface: Raster, xg: NDArray[np.int64], yg: NDArray[np.int64]
+) -> NDArray[np.float64]:
+    """Per 2 m tile (corners ``xg``, ``yg``), how far (m) ``surface`` stands above the lowest of
+    the ground returns ``ground_xyz`` in it, each compared with the surface where it lies; 0
+    where the tile holds none or none lies under the surface.
+
+    A surface through ground returns and through low vegetation's top taken for ground runs
+    between the two levels: the returns seen through the vegetation lie under it by about the
+    vegetation's height, where on open ground they lie on it (within the post spacing's
+    interpolation)."""
+    xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
+    out = np.zeros(len(xg))
+    g = np.asarray(ground_xyz, float)
+    if len(g) == 0 or len(xg) == 0:
+        return out
+    below = surface.sample(g[:, 0], g[:, 1]) - g[:, 2]
+    ok = np.isfinite(below)
+    i0, j0 = int(xg.min() // LEVEL), int(yg.min() // LEVEL)
+    shape = (int(yg.max() // LEVEL) - j0 + 1, int(xg.max() // LEVEL) - i0 + 1)
+    i = np.floor(g[ok, 0] / LEVEL).astype(np.int64) - i0
+    j = np.floor(g[ok, 1] / LEVEL).astype(np.int64) - j0
+    inside = (i >= 0) & (j >= 0) & (i < shape[1]) & (j < shape[0])
+    deepest = np.zeros(shape)
+    np.maximum.at(deepest, (j[inside], i[inside]), below[ok][inside])
+    return deepest[yg // LEVEL - j0, xg // LEVEL - i0]
 
 
 def _tile_lift(g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NDArray[np.float64]:

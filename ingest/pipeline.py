@@ -118,7 +118,7 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
     model = build(dtm, flat_threshold=threshold, n=SUBGRID)
     finest = model.levels[min(model.levels)]
     spacing = quantised(point_spacing(metric.xyz[:, :2]))
-    evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing)
+    evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm)
     objects = (
         find_objects(metric, ground, dtm, progress=report, skip=excluded(metric.classification, o.exclude))
         if o.objects

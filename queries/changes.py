@@ -76,33 +76,45 @@ def _noise_lod(db: Database, a: str, b: str) -> float:
     return max(MIN_LOD, 1.96 * float(np.sqrt(np.sum(np.square(terms)))))
 
 
+@dataclass(frozen=True)
+class TileJudgement:
+    """Per tile of a level, what both versions' ground evidence lets a change claim."""
+
+    lod: NDArray[np.float64]  # m: the level of detection
+    seen: NDArray[np.bool_]  # both versions saw the tile's ground well enough
+    depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface stands above its lowest ground
+
+
 def tile_lod(
     db: Database, a: str, b: str, xg: NDArray[np.int64], yg: NDArray[np.int64], *, level: int, lod: float
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+) -> TileJudgement:
     """Per tile of ``level`` (corners ``xg``, ``yg``), the level of detection grown by both
-    versions' ground evidence (:mod:`tdb.evidence`), at least ``lod``, and whether both versions
-    saw the tile well enough for a change to be claimed. A coarser tile takes the mean of its 2 m
-    tiles. Where a version holds no evidence (stored before it was kept) the tile keeps ``lod``
-    and counts as seen."""
+    versions' ground evidence (:mod:`tdb.evidence`), at least ``lod``; whether both versions
+    saw the tile well enough for a change to be claimed; and each version's depth of surface over
+    its lowest ground return. A coarser tile takes the mean of its 2 m tiles. Where a version
+    holds no evidence (stored before it was kept) the tile keeps ``lod``, counts as seen and has
+    depth 0."""
     bbox = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
     variance = np.zeros(len(xg))
     seen = np.ones(len(xg), bool)
-    for name in (a, b):
+    depth = np.zeros((2, len(xg)))
+    for side, name in enumerate((a, b)):
         evidence = db.evidence(name, bbox=bbox)
         if len(evidence) == 0:
             continue
         rmse = db.version(name).stats.reduction.rmse_m or 0.0
-        sigma2, support = _per_tile(evidence, xg, yg, level)
+        sigma2, support, depth[side] = _per_tile(evidence, xg, yg, level)
         variance += np.nan_to_num(sigma2, nan=0.0) + rmse**2
         seen &= support >= MIN_SUPPORT
-    return np.maximum(lod, 1.96 * np.sqrt(variance)), seen
+    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth)
 
 
 def _per_tile(
     evidence: TileEvidence, xg: NDArray[np.int64], yg: NDArray[np.int64], level: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Mean variance of the relief hidden in gaps, and mean support, of the 2 m tiles making up each
-    tile of ``level``. The lift stays out: a wall built or a bank lifts a tile as vegetation does."""
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Mean variance of the relief hidden in gaps, mean support and mean depth (0 where none is
+    held) of the 2 m tiles making up each tile of ``level``. The lift stays out: a wall built or
+    a bank lifts a tile as vegetation does."""
     k = level // EVIDENCE_LEVEL
     if k == 1:
         e = evidence.at(xg, yg)
@@ -110,9 +122,25 @@ def _per_tile(
         fx, fy = _split(xg // EVIDENCE_LEVEL // k, yg // EVIDENCE_LEVEL // k, k)
         e = evidence.at(fx * EVIDENCE_LEVEL, fy * EVIDENCE_LEVEL)
     variance = (GAP_SLOPE * e.gap.astype(float)) ** 2
+    depth = np.nan_to_num(e.depth.astype(float), nan=0.0)
     with np.errstate(invalid="ignore"):
         mean = np.nanmean(variance.reshape(len(xg), k * k), axis=1)
-    return mean, e.support.reshape(len(xg), k * k).mean(axis=1)
+    per = (len(xg), k * k)
+    return mean, e.support.reshape(per).mean(axis=1), depth.reshape(per).mean(axis=1)
+
+
+def supported_change(dz: NDArray[np.float64], depth: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The height change at each tile's nodes (``dz``, tiles × nodes) that both surveys' ground
+    evidence supports: a rise less the later surface's depth over its lowest ground return, a
+    fall less the earlier one's (``depth``, 2 × tiles), never past zero.
+
+    The survey whose surface stands higher saw ground returns at the lower level through what
+    its filter took for ground (low vegetation's top): the ground it saw did not move. A mound
+    raised or a ditch dug leaves no return under the higher surface."""
+    with np.errstate(invalid="ignore"):
+        rise = np.maximum(dz - depth[1][:, None], 0.0)
+        fall = np.minimum(dz + depth[0][:, None], 0.0)
+        return np.where(dz > 0, rise, fall)
 
 
 def tile_nodes(xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> tuple[NDArray[np.float64], ...]:
@@ -178,22 +206,25 @@ class _Tiles:
     yg: NDArray[np.int64]
     before: NodeLattice
     after: NodeLattice
-    lod: NDArray[np.float64]  # per tile
-    seen: NDArray[np.bool_]  # per tile: both versions saw its ground well enough
+    judged: TileJudgement
 
     def moved(self, which: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.bool_]]:
         """The tiles ``which`` that can move (indices), the height change at their 3 × 3 nodes,
         and whether each moved: at least three of its nine nodes beyond the LoD, since one node
         alone is often an interpolation difference between the two sets of kept points."""
-        which = which[self.seen[which]]
+        which = which[self.judged.seen[which]]
         xg, yg = self.xg[which], self.yg[which]
         na, nb = self.before.tile_nodes(xg, yg), self.after.tile_nodes(xg, yg)
         keep = np.flatnonzero(_may_move(na, nb, self.lod[which]) >= 3)
         surfaces = _surface(np.concatenate([na[keep], nb[keep]]))
-        dz = surfaces[len(keep) :] - surfaces[: len(keep)]
+        dz = supported_change(surfaces[len(keep) :] - surfaces[: len(keep)], self.judged.depth[:, which[keep]])
         with np.errstate(invalid="ignore"):
             moved = (np.abs(dz) > self.lod[which[keep], None]).sum(axis=1) >= 3
         return which[keep], dz, moved
+
+    @property
+    def lod(self) -> NDArray[np.float64]:
+        return self.judged.lod
 
 
 def _regions(
@@ -315,7 +346,7 @@ def detect(
     if shift is not None and shift.applied:
         lattices[after] = shifted_lattice(lattices[after], shift)
     tiles = _Tiles(
-        xg, yg, lattices[before], lattices[after], *tile_lod(db, before, after, xg, yg, level=level, lod=lod)
+        xg, yg, lattices[before], lattices[after], tile_lod(db, before, after, xg, yg, level=level, lod=lod)
     )
     tested, dz, moved = tiles.moved(differ)
     if not moved.any():

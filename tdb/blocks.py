@@ -156,11 +156,24 @@ def evidence_from_blocks(
     blocks: list[tuple[int, int, bytes]], bbox: tuple[float, float, float, float], *, fields: int
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], list[NDArray[np.float32]]]:
     """(xg, yg, fields) of the 2 m tiles of ``blocks`` overlapping ``bbox``; a tile is held where
-    its last field is not NaN."""
+    its last field is not NaN. A page written before a field was added lacks it: NaN there."""
+    pages = [(bx, by, _with_fields(blob, fields)) for bx, by, blob in blocks]
     xg, yg, values = _from_raster_blocks(
-        blocks, bbox, level=2, layers=fields, dtype="<f2", held=lambda r: ~np.isnan(r)
+        pages, bbox, level=2, layers=fields, dtype="<f2", held=lambda r: ~np.isnan(r)
     )
     return xg, yg, [v.astype(np.float32) for v in values]
+
+
+def _with_fields(blob: bytes, fields: int) -> bytes:
+    """An evidence page of ``fields`` layers from one of fewer, older ones: the fields added since
+    (all before the last, which says where a tile is held) NaN."""
+    plane = TILES_PER_BLOCK * TILES_PER_BLOCK
+    found = len(blob) // (2 * plane)
+    if found >= fields:
+        return blob
+    old = np.frombuffer(blob, "<f2").reshape(found, plane)
+    added = np.full((fields - found, plane), np.nan, "<f2")
+    return np.concatenate([old[:-1], added, old[-1:]]).tobytes()
 
 
 def merge_raster_pages(old: bytes, new: bytes, *, dtype: str, layers: int, fill: Any) -> bytes:
@@ -179,7 +192,9 @@ def merge_tile_pages(old: bytes, new: bytes) -> bytes:
 
 def merge_evidence_pages(old: bytes, new: bytes, *, fields: int) -> bytes:
     """An evidence page (:func:`evidence_blocks`) from two parts written apart."""
-    return merge_raster_pages(old, new, dtype="<f2", layers=fields, fill=np.nan)
+    return merge_raster_pages(
+        _with_fields(old, fields), _with_fields(new, fields), dtype="<f2", layers=fields, fill=np.nan
+    )
 
 
 def merge_point_pages(old: bytes, new: bytes) -> bytes:

@@ -11,7 +11,11 @@ the ground seen through it. Two figures per tile say how much to trust it:
   ground returns stand above the lower envelope of their neighbourhoods (the
   local surface carried along), and, where a node is farther
   from a return than that, the relief the terrain may hide across the gap
-  (:data:`GAP_SLOPE` per metre).
+  (:data:`GAP_SLOPE` per metre);
+- ``depth``: how far the surface stands above the tile's lowest ground return. Where a
+  filter took low vegetation's top for the ground beside ground seen through it, the
+  surface runs between the two and the ground seen lies under it: that survey saw the
+  lower level, so a rise of the surface there is not evidence that the ground rose.
 
 A change between two versions is claimed only where both surfaces are seen well
 enough (:data:`MIN_SUPPORT`), beyond a level of detection grown by the relief both
@@ -41,14 +45,16 @@ class TileEvidence:
     yg: NDArray[np.int64]
     lift: NDArray[np.float32]  # m: RMS height of the tile's returns over their lower envelope
     gap: NDArray[np.float32]  # m: mean distance of its nodes beyond the support radius
+    depth: NDArray[np.float32]  # m: how far its surface stands above its lowest ground return
     support: NDArray[np.float32]  # share of its nodes with a ground return within the radius
 
-    FIELDS = ("lift", "gap", "support")
+    # support last: a stored tile is held where it is set (:func:`tdb.blocks.evidence_from_blocks`)
+    FIELDS = ("lift", "gap", "depth", "support")
 
     @classmethod
     def empty(cls) -> TileEvidence:
         none = np.empty(0, np.float32)
-        return cls(np.empty(0, np.int64), np.empty(0, np.int64), none, none, none)
+        return cls(np.empty(0, np.int64), np.empty(0, np.int64), none, none, none, none)
 
     def __len__(self) -> int:
         return len(self.xg)
