@@ -14,6 +14,7 @@ from tdb.tiles import key_pair, tile_key
 NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic's six terms
 TOLERANCE = 0.1  # m per m: what a neighbour carried along the surface may fall short by
 CHUNK = 200_000  # points per batch of plane fits (bounds the memory of the neighbourhoods)
+DEEP_SHARE = 0.2  # a tile's depth is what this share of its ground returns reach, not one return
 
 
 def envelope_lift(
@@ -81,29 +82,35 @@ def tile_evidence(
 def tile_depth(
     ground_xyz: NDArray[np.float64], surface: Raster, xg: NDArray[np.int64], yg: NDArray[np.int64]
 ) -> NDArray[np.float64]:
-    """Per 2 m tile (corners ``xg``, ``yg``), how far (m) ``surface`` stands above the lowest of
-    the ground returns ``ground_xyz`` in it, each compared with the surface where it lies; 0
-    where the tile holds none or none lies under the surface.
+    """Per 2 m tile (corners ``xg``, ``yg``), how far (m) ``surface`` stands above the ground
+    returns ``ground_xyz`` in it, each compared with the surface where it lies: the depth that
+    :data:`DEEP_SHARE` of them reach (the deepest where they are few); 0 where the tile holds
+    none or none lies under the surface.
 
     A surface through ground returns and through low vegetation's top taken for ground runs
     between the two levels: the returns seen through the vegetation lie under it by about the
     vegetation's height, where on open ground they lie on it (within the post spacing's
-    interpolation)."""
+    interpolation). At a wall's or a bank's foot the posts' interpolation also lifts the
+    surface over the few returns nearest the step: one return does not make a tile's depth."""
     xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
     out = np.zeros(len(xg))
     g = np.asarray(ground_xyz, float)
     if len(g) == 0 or len(xg) == 0:
         return out
     below = surface.sample(g[:, 0], g[:, 1]) - g[:, 2]
-    ok = np.isfinite(below)
     i0, j0 = int(xg.min() // LEVEL), int(yg.min() // LEVEL)
     shape = (int(yg.max() // LEVEL) - j0 + 1, int(xg.max() // LEVEL) - i0 + 1)
-    i = np.floor(g[ok, 0] / LEVEL).astype(np.int64) - i0
-    j = np.floor(g[ok, 1] / LEVEL).astype(np.int64) - j0
-    inside = (i >= 0) & (j >= 0) & (i < shape[1]) & (j < shape[0])
-    deepest = np.zeros(shape)
-    np.maximum.at(deepest, (j[inside], i[inside]), below[ok][inside])
-    return deepest[yg // LEVEL - j0, xg // LEVEL - i0]
+    i = np.floor(g[:, 0] / LEVEL).astype(np.int64) - i0
+    j = np.floor(g[:, 1] / LEVEL).astype(np.int64) - j0
+    keep = np.isfinite(below) & (i >= 0) & (j >= 0) & (i < shape[1]) & (j < shape[0])
+    flat, below = j[keep] * shape[1] + i[keep], below[keep]
+    order = np.lexsort((-below, flat))  # per tile, deepest first
+    first = np.flatnonzero(np.r_[True, flat[order][1:] != flat[order][:-1]]) if len(order) else order
+    count = np.diff(np.r_[first, len(order)])
+    pick = order[first + np.floor((count - 1) * DEEP_SHARE).astype(np.intp)]
+    depth = np.zeros(shape[0] * shape[1])
+    depth[flat[pick]] = np.maximum(below[pick], 0.0)
+    return depth.reshape(shape)[yg // LEVEL - j0, xg // LEVEL - i0]
 
 
 def _tile_lift(g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NDArray[np.float64]:

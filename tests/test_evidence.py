@@ -211,18 +211,19 @@ def test_the_supported_change_never_exceeds_the_change_nor_turns_its_sign(dz, be
 
 def test_vegetation_taken_for_ground_is_no_rise_but_a_platform_is(tmp_path, monkeypatch):
     """The later survey sees a shrub field as ground beside a platform raised 1 m: the platform is
-    reported, the shrubs, whose survey saw the ground through them, are not."""
+    reported, the shrubs, whose survey saw the ground through them, are not. Both surveys as
+    noisy as TTP 2019's (0.08 m), so the level of detection is a real survey's."""
     import shapely
 
     from queries import changes
 
     rng = np.random.default_rng(21)
-    before = _ground(size=120, density=3, seed=3)
-    after = _ground(size=120, density=3, seed=4)
+    before = _ground(size=120, density=3, seed=3, noise=0.08)
+    after = _ground(size=120, density=3, seed=4, noise=0.08)
     platform = (np.abs(after[:, 0] - 30) < 12) & (np.abs(after[:, 1] - 60) < 12)
     after[platform, 2] += 1.0
     field = (np.abs(after[:, 0] - 90) < 14) & (np.abs(after[:, 1] - 60) < 14)
-    after = _shrubs(after, rng, field, share=0.5, heights=(0.2, 0.6))
+    after = _shrubs(after, rng, field, share=0.4, heights=(0.3, 0.8))
     db = tdb.open(tmp_path / "s.tdb", create=True)
     ingest(from_arrays(*before.T, crs=CRS), db, version="a")
     ingest(from_arrays(*after.T, crs=CRS), db, version="b")
@@ -239,7 +240,7 @@ def test_vegetation_taken_for_ground_is_no_rise_but_a_platform_is(tmp_path, monk
     assert shrubs < 0.3 * 28 * 28
     # the case at hand: the filter kept the shrubs' top, and the surfaces alone report them
     monkeypatch.setattr(changes, "supported_change", lambda dz, depth: dz)
-    assert reported()[1] > 0.8 * 28 * 28
+    assert reported()[1] > 0.6 * 28 * 28
 
 
 def test_evidence_pages_written_before_the_depth_read_it_as_nan():
