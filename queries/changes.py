@@ -82,7 +82,7 @@ class TileJudgement:
 
     lod: NDArray[np.float64]  # m: the level of detection
     seen: NDArray[np.bool_]  # both versions saw the tile's ground well enough
-    depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface stands above its lowest ground
+    depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface stands above its ground
 
 
 def tile_lod(
@@ -91,9 +91,8 @@ def tile_lod(
     """Per tile of ``level`` (corners ``xg``, ``yg``), the level of detection grown by both
     versions' ground evidence (:mod:`tdb.evidence`), at least ``lod``; whether both versions
     saw the tile well enough for a change to be claimed; and each version's depth of surface over
-    its lowest ground return. A coarser tile takes the mean of its 2 m tiles. Where a version
-    holds no evidence (stored before it was kept) the tile keeps ``lod``, counts as seen and has
-    depth 0."""
+    its ground returns. A coarser tile takes the mean of its 2 m tiles. Where a version holds no
+    evidence (stored before it was kept) the tile keeps ``lod``, counts as seen and has depth 0."""
     bbox = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
     variance = np.zeros(len(xg))
     seen = np.ones(len(xg), bool)
@@ -131,7 +130,7 @@ def _per_tile(
 
 def supported_change(dz: NDArray[np.float64], depth: NDArray[np.float64]) -> NDArray[np.float64]:
     """The height change at each tile's nodes (``dz``, tiles × nodes) that both surveys' ground
-    evidence supports: a rise less the later surface's depth over its lowest ground return, a
+    evidence supports: a rise less the later surface's depth over its ground returns, a
     fall less the earlier one's (``depth``, 2 × tiles), never past zero.
 
     The survey whose surface stands higher saw ground returns at the lower level through what

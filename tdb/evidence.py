@@ -12,7 +12,8 @@ the ground seen through it. Two figures per tile say how much to trust it:
   local surface carried along), and, where a node is farther
   from a return than that, the relief the terrain may hide across the gap
   (:data:`GAP_SLOPE` per metre);
-- ``depth``: how far the surface stands above the tile's lowest ground return. Where a
+- ``depth``: how far the surface stands above the tile's ground returns (the depth a
+  fifth of them reach, :func:`ingest.evidence.tile_depth`). Where a
   filter took low vegetation's top for the ground beside ground seen through it, the
   surface runs between the two and the ground seen lies under it: that survey saw the
   lower level, so a rise of the surface there is not evidence that the ground rose.
@@ -45,7 +46,7 @@ class TileEvidence:
     yg: NDArray[np.int64]
     lift: NDArray[np.float32]  # m: RMS height of the tile's returns over their lower envelope
     gap: NDArray[np.float32]  # m: mean distance of its nodes beyond the support radius
-    depth: NDArray[np.float32]  # m: how far its surface stands above its lowest ground return
+    depth: NDArray[np.float32]  # m: how far its surface stands above its ground returns
     support: NDArray[np.float32]  # share of its nodes with a ground return within the radius
 
     # support last: a stored tile is held where it is set (:func:`tdb.blocks.evidence_from_blocks`)
