@@ -105,11 +105,9 @@ def read_trees(
     """The trees of a version whose crown meets ``bbox`` (all where None), tallest first."""
     t = schema.trees
     q = select(t.c.x, t.c.y, t.c.height, t.c.crown_diameter, t.c.crown).where(_where(t, vid, bbox, keyed=keyed))
-    rows = conn.execute(q).all()
-    crowns = _meeting(shapely.from_wkb([r.crown for r in rows]), bbox)
-    out = [
-        Tree(r.x, r.y, r.height, r.crown_diameter, crown) for r, crown in zip(rows, crowns) if crown is not None
-    ]
+    rows = [tuple(r) for r in conn.execute(q).all()]  # plain tuples: a Row's attributes cost more than the tree
+    crowns = _meeting(shapely.from_wkb([r[4] for r in rows]), bbox)
+    out = [Tree(x, y, h, d, crown) for (x, y, h, d, _), crown in zip(rows, crowns) if crown is not None]
     return sorted(out, key=lambda tree: -tree.height)
 
 
@@ -118,9 +116,12 @@ def read_buildings(
 ) -> list[Building]:
     """The buildings of a version whose footprint meets ``bbox`` (all where None), largest first."""
     b = schema.buildings
-    rows = conn.execute(select(b.c.height, b.c.footprint).where(_where(b, vid, bbox, keyed=keyed))).all()
-    shapes = _meeting(shapely.from_wkb([r.footprint for r in rows]), bbox)
-    out = [Building(shape, r.height) for r, shape in zip(rows, shapes) if shape is not None]
+    rows = [
+        tuple(r)
+        for r in conn.execute(select(b.c.height, b.c.footprint).where(_where(b, vid, bbox, keyed=keyed))).all()
+    ]
+    shapes = _meeting(shapely.from_wkb([r[1] for r in rows]), bbox)
+    out = [Building(shape, h) for (h, _), shape in zip(rows, shapes) if shape is not None]
     return sorted(out, key=lambda bd: -bd.area)
 
 
