@@ -59,6 +59,7 @@ class Totals:
     thresholds: list[float] = field(default_factory=list)
     evidence_tiles: int = 0
     supported: int = 0
+    deep: int = 0
     sigma_mm: NDArray[np.int64] = field(default_factory=lambda: np.zeros(SIGMA_BINS + 1, np.int64))
     echo_test: bool = False
 
@@ -83,6 +84,7 @@ class Totals:
         self.thresholds.append(r.flat_threshold)
         self.evidence_tiles += len(r.evidence)
         self.supported += int((r.evidence.support >= MIN_SUPPORT).sum())
+        self.deep += round(r.evidence.deep_share() * len(r.evidence))
         mm = np.minimum(np.round(r.evidence.sigma * 1000), SIGMA_BINS).astype(np.int64)
         self.sigma_mm += np.bincount(mm, minlength=SIGMA_BINS + 1)
         self.echo_test |= r.echo_test
@@ -115,6 +117,7 @@ class Totals:
             bounds=bounds,
             seen_pct=round(100 * self.supported / self.evidence_tiles, 1) if self.evidence_tiles else None,
             sigma_m=self._median_sigma(),
+            deep_pct=round(100 * self.deep / self.evidence_tiles, 1) if self.evidence_tiles else None,
         )
 
     def _median_sigma(self) -> float | None:

@@ -168,6 +168,7 @@ def ingest(
         bounds=result.dtm.bounds,
         seen_pct=seen_pct(result.evidence),
         sigma_m=median_sigma(result.evidence),
+        deep_pct=round(100 * result.evidence.deep_share(), 1) if len(result.evidence) else None,
     )
     params = {
         "method": str(o.method),

@@ -36,6 +36,7 @@ LEVEL = 2  # m: evidence is kept for the finest tiles
 SUPPORT_SPACINGS = 1.5  # open ground has a return within this many pulse spacings of every node
 GAP_SLOPE = 0.1  # rise/run the terrain may take unseen across a gap in the ground returns
 MIN_SUPPORT = 0.5  # a change needs half a tile's nodes seen in each version
+DEEP = 0.1  # m: a surface this far over its ground returns rests partly on what was taken for ground
 
 
 @dataclass(frozen=True)
@@ -79,6 +80,10 @@ class TileEvidence:
             for out, name in zip(fields, self.FIELDS):
                 out[hit] = getattr(self, name)[at[hit]]
         return TileEvidence(xg, yg, *fields)
+
+    def deep_share(self) -> float:
+        """Share of the tiles whose surface stands at least :data:`DEEP` over their ground returns."""
+        return float((np.nan_to_num(self.depth) >= DEEP).mean()) if len(self) else 0.0
 
     def supported_share(self) -> float:
         """Share of the tiles whose surface is seen well enough for a change to be claimed."""

@@ -43,6 +43,7 @@ class VersionStats:
     bounds: tuple[float, float, float, float] | None = None  # x0, y0, x1, y1 of the dense model
     seen_pct: float | None = None  # 2 m tiles whose surface rests on ground returns (tdb.evidence)
     sigma_m: float | None = None  # the median standard uncertainty of a 2 m tile's surface
+    deep_pct: float | None = None  # 2 m tiles whose surface stands over its ground returns (tdb.evidence.DEEP)
 
     def to_json(self) -> dict[str, Any]:
         """The flat JSON object stored in ``versions.stats``."""
@@ -68,6 +69,7 @@ class VersionStats:
             bounds=None if self.bounds is None else list(self.bounds),
             seen_pct=self.seen_pct,
             sigma_m=self.sigma_m,
+            deep_pct=self.deep_pct,
         )
         return out
 
@@ -96,6 +98,7 @@ class VersionStats:
             bounds=None if bounds is None else _box(bounds),
             seen_pct=_float(doc.get("seen_pct")),
             sigma_m=_float(doc.get("sigma_m")),
+            deep_pct=_float(doc.get("deep_pct")),
         )
 
 

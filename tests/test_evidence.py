@@ -93,6 +93,7 @@ def test_evidence_is_stored_per_version_and_read_by_area(tmp_path):
     assert len(e) == v.stats.reduction.tiles[2]  # one per 2 m tile
     assert v.stats.seen_pct is not None and v.stats.seen_pct > 90
     assert v.stats.sigma_m is not None and v.stats.sigma_m < 0.1
+    assert v.stats.deep_pct is not None and v.stats.deep_pct < 5  # open ground: its surface on its returns
     part = db.evidence("a", bbox=(1100.0, 2100.0, 1110.0, 2110.0))
     assert len(part) == 25
     back = e.at(part.xg, part.yg)
@@ -227,6 +228,9 @@ def test_vegetation_taken_for_ground_is_no_rise_but_a_platform_is(tmp_path, monk
     db = tdb.open(tmp_path / "s.tdb", create=True)
     ingest(from_arrays(*before.T, crs=CRS), db, version="a")
     ingest(from_arrays(*after.T, crs=CRS), db, version="b")
+    # the shrub field is 5 % of the area: the share of tiles standing over their returns grows by it
+    deep = (db.version("a").stats.deep_pct, db.version("b").stats.deep_pct)
+    assert deep[0] is not None and deep[1] is not None and deep[1] > deep[0] + 3
 
     def reported() -> tuple[float, float]:
         found = detect(db, "a", "b")

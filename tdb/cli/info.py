@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from tdb.cli.options import DATABASE, input_options
+from tdb.evidence import DEEP
 from tdb.geojson import finite
 from tdb.tiles import LEVELS
 
@@ -89,6 +90,11 @@ def _database_info(path: Path | str, as_json: bool) -> None:
         if s.seen_pct is not None:  # versions from before ground evidence was kept have none
             click.echo(
                 f"    ground seen under {s.seen_pct} % of the 2 m tiles; median surface uncertainty {s.sigma_m} m"
+            )
+        if s.deep_pct is not None:  # versions from before the depth was kept have none
+            click.echo(
+                f"    surface {DEEP} m or more over its own ground returns in {s.deep_pct} % of the 2 m tiles "
+                "(vegetation's top taken for ground: rises there are cut)"
             )
         click.echo(f"    trees {objects[v.name][0]:,}, buildings {objects[v.name][1]:,}")
         if "exclude_classes" in v.params:  # versions from before the option have no record
