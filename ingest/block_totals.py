@@ -84,7 +84,7 @@ class Totals:
         self.thresholds.append(r.flat_threshold)
         self.evidence_tiles += len(r.evidence)
         self.supported += int((r.evidence.support >= MIN_SUPPORT).sum())
-        self.deep += round(r.evidence.deep_share() * len(r.evidence))
+        self.deep += int(r.evidence.deep.sum())
         mm = np.minimum(np.round(r.evidence.sigma * 1000), SIGMA_BINS).astype(np.int64)
         self.sigma_mm += np.bincount(mm, minlength=SIGMA_BINS + 1)
         self.echo_test |= r.echo_test

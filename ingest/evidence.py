@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
@@ -63,8 +65,8 @@ def tile_evidence(
 
     A tile's lift is how far its highest ground return stands above its neighbourhood's lower
     envelope (:func:`envelope_lift`); a tile without any takes its neighbours' (3 × 3 tiles),
-    the gap saying the rest. Its depth is how far the surface stands above its lowest ground
-    return (:func:`tile_depth`).
+    the gap saying the rest. Its depth is how far the surface stands above its ground returns
+    (:func:`tile_depth`).
     """
     xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
     if len(xg) == 0:
@@ -93,49 +95,76 @@ def tile_depth(
     interpolation). At a wall's or a bank's foot the posts' interpolation also lifts the
     surface over the few returns nearest the step: one return does not make a tile's depth."""
     xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
-    out = np.zeros(len(xg))
     g = np.asarray(ground_xyz, float)
     if len(g) == 0 or len(xg) == 0:
-        return out
+        return np.zeros(len(xg))
+    grid = _TileGrid.of(xg, yg)
     below = surface.sample(g[:, 0], g[:, 1]) - g[:, 2]
-    i0, j0 = int(xg.min() // LEVEL), int(yg.min() // LEVEL)
-    shape = (int(yg.max() // LEVEL) - j0 + 1, int(xg.max() // LEVEL) - i0 + 1)
-    i = np.floor(g[:, 0] / LEVEL).astype(np.int64) - i0
-    j = np.floor(g[:, 1] / LEVEL).astype(np.int64) - j0
-    keep = np.isfinite(below) & (i >= 0) & (j >= 0) & (i < shape[1]) & (j < shape[0])
-    flat, below = j[keep] * shape[1] + i[keep], below[keep]
-    order = np.lexsort((-below, flat))  # per tile, deepest first
-    first = np.flatnonzero(np.r_[True, flat[order][1:] != flat[order][:-1]]) if len(order) else order
-    count = np.diff(np.r_[first, len(order)])
-    pick = order[first + np.floor((count - 1) * DEEP_SHARE).astype(np.intp)]
-    depth = np.zeros(shape[0] * shape[1])
-    depth[flat[pick]] = np.maximum(below[pick], 0.0)
-    return depth.reshape(shape)[yg // LEVEL - j0, xg // LEVEL - i0]
+    cell = grid.cells(g[:, 0], g[:, 1])
+    keep = np.flatnonzero(np.isfinite(below) & (cell >= 0))
+    order, starts = _ranked(cell[keep], -below[keep])  # per tile, deepest first
+    count = np.diff(np.r_[starts, len(order)])
+    pick = keep[order[starts + np.floor((count - 1) * DEEP_SHARE).astype(np.intp)]]
+    depth = np.zeros(grid.size)
+    depth[cell[pick]] = np.maximum(below[pick], 0.0)
+    return depth[grid.cells_of_tiles(xg, yg)]
+
+
+@dataclass(frozen=True)
+class _TileGrid:
+    """The 2 m tiles' extent as a raster (south row first): a flat cell index per point or tile."""
+
+    i0: int
+    j0: int
+    shape: tuple[int, int]
+
+    @classmethod
+    def of(cls, xg: NDArray[np.int64], yg: NDArray[np.int64]) -> _TileGrid:
+        i0, j0 = int(xg.min() // LEVEL), int(yg.min() // LEVEL)
+        return cls(i0, j0, (int(yg.max() // LEVEL) - j0 + 1, int(xg.max() // LEVEL) - i0 + 1))
+
+    @property
+    def size(self) -> int:
+        return self.shape[0] * self.shape[1]
+
+    def cells(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.int64]:
+        """The cell of each point (−1 outside the grid)."""
+        i = np.floor(x / LEVEL).astype(np.int64) - self.i0
+        j = np.floor(y / LEVEL).astype(np.int64) - self.j0
+        inside = (i >= 0) & (j >= 0) & (i < self.shape[1]) & (j < self.shape[0])
+        return np.where(inside, j * self.shape[1] + i, -1)
+
+    def cells_of_tiles(self, xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NDArray[np.int64]:
+        return (yg // LEVEL - self.j0) * self.shape[1] + (xg // LEVEL - self.i0)
+
+
+def _ranked(cell: NDArray[np.int64], key: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The order of the points by cell and, within one, by ``key``; and where each cell's run starts."""
+    order = np.lexsort((key, cell))
+    run = cell[order]
+    return order, np.flatnonzero(np.r_[True, run[1:] != run[:-1]]) if len(run) else order
 
 
 def _tile_lift(g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NDArray[np.float64]:
     """Envelope lift (m) of each tile's highest ground return, or the mean of its neighbours'
     (3 × 3 tiles) where it has none, or 0. The highest return is the one vegetation lifts most;
     one per tile bounds the cost whatever the density."""
-    i0, j0 = int(xg.min() // LEVEL), int(yg.min() // LEVEL)
-    shape = (int(yg.max() // LEVEL) - j0 + 1, int(xg.max() // LEVEL) - i0 + 1)
-    total, count = np.zeros(shape), np.zeros(shape)
+    grid = _TileGrid.of(xg, yg)
+    total, count = np.zeros(grid.size), np.zeros(grid.size)
     if len(g):
-        i = np.floor(g[:, 0] / LEVEL).astype(np.int64) - i0
-        j = np.floor(g[:, 1] / LEVEL).astype(np.int64) - j0
-        inside = np.flatnonzero((i >= 0) & (j >= 0) & (i < shape[1]) & (j < shape[0]))
-        flat = j[inside] * shape[1] + i[inside]
-        order = np.lexsort((-g[inside, 2], flat))
-        first = order[np.r_[True, flat[order][1:] != flat[order][:-1]]]
-        top = inside[first]
-        total[j[top], i[top]] = envelope_lift(g, at=top)
-        count[j[top], i[top]] = 1.0
-    ti, tj = xg // LEVEL - i0, yg // LEVEL - j0
-    own = count[tj, ti]
-    near_total = ndimage.uniform_filter(total, size=3, mode="constant")[tj, ti]
-    near_count = ndimage.uniform_filter(count, size=3, mode="constant")[tj, ti]
+        cell = grid.cells(g[:, 0], g[:, 1])
+        inside = np.flatnonzero(cell >= 0)
+        order, starts = _ranked(cell[inside], -g[inside, 2])
+        top = inside[order[starts]]
+        total[cell[top]] = envelope_lift(g, at=top)
+        count[cell[top]] = 1.0
+    total, count = total.reshape(grid.shape), count.reshape(grid.shape)
+    at = np.unravel_index(grid.cells_of_tiles(xg, yg), grid.shape)
+    own = count[at]
+    near_total = ndimage.uniform_filter(total, size=3, mode="constant")[at]
+    near_count = ndimage.uniform_filter(count, size=3, mode="constant")[at]
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(own > 0, total[tj, ti] / own, np.where(near_count > 0, near_total / near_count, 0.0))
+        return np.where(own > 0, total[at] / own, np.where(near_count > 0, near_total / near_count, 0.0))
 
 
 def _node_distance(

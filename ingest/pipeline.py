@@ -168,7 +168,7 @@ def ingest(
         bounds=result.dtm.bounds,
         seen_pct=seen_pct(result.evidence),
         sigma_m=median_sigma(result.evidence),
-        deep_pct=round(100 * result.evidence.deep_share(), 1) if len(result.evidence) else None,
+        deep_pct=deep_pct(result.evidence),
     )
     params = {
         "method": str(o.method),
@@ -198,6 +198,11 @@ def ingest(
 def seen_pct(evidence: TileEvidence) -> float | None:
     """Share (%) of the 2 m tiles whose surface rests on ground returns, for :class:`VersionStats`."""
     return round(100 * evidence.supported_share(), 1) if len(evidence) else None
+
+
+def deep_pct(evidence: TileEvidence) -> float | None:
+    """Share (%) of the 2 m tiles whose surface stands over its ground returns, for :class:`VersionStats`."""
+    return round(100 * evidence.deep_share(), 1) if len(evidence) else None
 
 
 def median_sigma(evidence: TileEvidence) -> float | None:

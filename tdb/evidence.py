@@ -81,9 +81,14 @@ class TileEvidence:
                 out[hit] = getattr(self, name)[at[hit]]
         return TileEvidence(xg, yg, *fields)
 
+    @property
+    def deep(self) -> NDArray[np.bool_]:
+        """Whether each tile's surface stands at least :data:`DEEP` over its ground returns."""
+        return np.nan_to_num(self.depth) >= DEEP
+
     def deep_share(self) -> float:
         """Share of the tiles whose surface stands at least :data:`DEEP` over their ground returns."""
-        return float((np.nan_to_num(self.depth) >= DEEP).mean()) if len(self) else 0.0
+        return float(self.deep.mean()) if len(self) else 0.0
 
     def supported_share(self) -> float:
         """Share of the tiles whose surface is seen well enough for a change to be claimed."""
