@@ -30,11 +30,11 @@ from queries.relief import nan_extreme
 from tdb.categories import NO_DATA
 from tdb.crs import check_same_horizontal
 from tdb.database import Database
-from tdb.evidence import GAP_SLOPE, MIN_SUPPORT, TileEvidence
+from tdb.evidence import GAP_SLOPE, MIN_SUPPORT, TileEvidence, supported_change
 from tdb.evidence import LEVEL as EVIDENCE_LEVEL
 from tdb.geojson import feature
 from tdb.surface import line_rebuild_at
-from tdb.tiles import SUBGRID, NodeLattice, node_lattice, tile_key
+from tdb.tiles import SUBGRID, NodeLattice, key_pair, node_lattice, tile_key
 
 MIN_LOD = 0.10
 # A region smaller than ``min_tiles`` (but of at least MIN_STRONG_TILES) counts when its mean
@@ -126,20 +126,6 @@ def _per_tile(
         mean = np.nanmean(variance.reshape(len(xg), k * k), axis=1)
     per = (len(xg), k * k)
     return mean, e.support.reshape(per).mean(axis=1), depth.reshape(per).mean(axis=1)
-
-
-def supported_change(dz: NDArray[np.float64], depth: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The height change at each tile's nodes (``dz``, tiles × nodes) that both surveys' ground
-    evidence supports: a rise less the later surface's depth over its ground returns, a
-    fall less the earlier one's (``depth``, 2 × tiles), never past zero.
-
-    The survey whose surface stands higher saw ground returns at the lower level through what
-    its filter took for ground (low vegetation's top): the ground it saw did not move. A mound
-    raised or a ditch dug leaves no return under the higher surface."""
-    with np.errstate(invalid="ignore"):
-        rise = np.maximum(dz - depth[1][:, None], 0.0)
-        fall = np.minimum(dz + depth[0][:, None], 0.0)
-        return np.where(dz > 0, rise, fall)
 
 
 def tile_nodes(xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> tuple[NDArray[np.float64], ...]:
@@ -375,7 +361,7 @@ def detect(
         if not sure and not _closed_form_changed(was, now, mean_dz):
             continue
         x, y = xg[members], yg[members]
-        geom = shapely.coverage_union_all(shapely.box(x, y, x + level, y + level))  # tiles never overlap
+        geom = outline(x, y, dz[members], lods[members], mean_dz, level=level)
         compact = elongation(x.astype(float), y.astype(float), level=level) < LINE_ELONGATION
         props = {
             "kind": _kind(was, now, mean_dz, compact=compact),
@@ -387,6 +373,32 @@ def detect(
         }
         out.append(feature(geom, props))
     return out
+
+
+def outline(
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    dz: NDArray[np.float64],
+    lod: NDArray[np.float64],
+    mean_dz: float,
+    *,
+    level: int,
+) -> shapely.Geometry:
+    """A region's outline at its node spacing: the cells (half a tile across, one per node) of
+    the nodes of its tiles ``xg``, ``yg`` that moved beyond their tile's ``lod`` the way the
+    region did (``dz``, tiles × 3 × 3 nodes); the tiles themselves where none did.
+
+    A tile moves when a third of its nodes do, so a tile on a region's edge holds ground that
+    stayed as well: its tiles outline a region wider than the change by up to a tile all round."""
+    with np.errstate(invalid="ignore"):
+        moved = (np.abs(dz) > lod[:, None]) & (np.sign(dz) == np.sign(mean_dz))
+    if not moved.any():
+        return shapely.coverage_union_all(shapely.box(xg, yg, xg + level, yg + level))  # tiles never overlap
+    u, v = np.meshgrid([0, level // 2, level], [0, level // 2, level])
+    tile, node = np.nonzero(moved)
+    nx, ny = key_pair(np.unique(tile_key(xg[tile] + u.ravel()[node], yg[tile] + v.ravel()[node])))
+    r = level / 4
+    return shapely.coverage_union_all(shapely.box(nx - r, ny - r, nx + r, ny + r))  # one cell per node
 
 
 def _closed_form_changed(before: dict[str, float], after: dict[str, float], mean_dz: float) -> bool:

@@ -42,6 +42,8 @@ from queries.grids import Box, surface_grids
 from tdb.crs import check_same_horizontal
 from tdb.database import Database
 from tdb.errors import DatabaseError
+from tdb.evidence import LEVEL as EVIDENCE_LEVEL
+from tdb.evidence import supported_change
 from tdb.fill import fill_nearest
 from tdb.options import Coregistration, parse
 from tdb.raster import Raster
@@ -67,7 +69,8 @@ class Shift:
     """The later survey's offset from the earlier one, and how well it is known.
 
     ``sigma_xy`` and ``sigma_z`` are standard errors (m); ``nmad`` is the spread of the stable
-    differences after the shift; ``stable_share`` the share of compared cells found stable.
+    differences after the shift (of the change the ground evidence supports, where the versions
+    hold evidence); ``stable_share`` the share of compared cells found stable.
     ``horizontal`` and ``vertical`` say which parts apply.
     """
 
@@ -181,7 +184,9 @@ def coregister(
     if stored is not None:
         return Shift.from_json(stored)
     first, second = estimation_grids(db, before, after, level=level, bbox=bbox)
-    shift = estimate_shift(first, second, method=m, noise=_noise(db, before, after))
+    held = np.isfinite(first.data) & np.isfinite(second.data)
+    depth = (depth_grid(db, before, first, held), depth_grid(db, after, first, held))
+    shift = estimate_shift(first, second, method=m, noise=_noise(db, before, after), depth=depth)
     with contextlib.suppress(DatabaseError):  # a read-only database: the shift is found again next time
         db.store_coregistration(before, after, setting, shift.to_json())
     return shift
@@ -207,6 +212,34 @@ def estimation_grids(
         fit=True,
         blocks=blocks,
     )
+
+
+DEPTH_STRIP = 1024.0  # m: the evidence is read in strips this wide, so a large area's stays out of memory
+
+
+def depth_grid(db: Database, version: str, grid: Raster, held: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """The version's depth of surface over its ground returns (:mod:`tdb.evidence`) at the
+    ``held`` cells of ``grid``, from the 2 m tile holding each centre (0 elsewhere and where the
+    version holds none)."""
+    out = np.zeros(grid.shape)
+    rows, cols = np.nonzero(held)
+    x = grid.x0 + (cols + 0.5) * grid.cell
+    y = grid.y1 - (rows + 0.5) * grid.cell
+    strip = np.floor(x / DEPTH_STRIP).astype(np.int64)
+    for s in np.unique(strip):
+        here = np.flatnonzero(strip == s)
+        bbox = (float(x[here].min()), float(y[here].min()), float(x[here].max()), float(y[here].max()))
+        evidence = db.evidence(version, bbox=bbox)
+        if len(evidence) == 0:
+            continue
+        i, j = evidence.xg // EVIDENCE_LEVEL, evidence.yg // EVIDENCE_LEVEL
+        depth = np.zeros((int(j.max() - j.min()) + 1, int(i.max() - i.min()) + 1))
+        depth[j - j.min(), i - i.min()] = np.nan_to_num(evidence.depth.astype(float), nan=0.0)
+        ci = np.floor(x[here] / EVIDENCE_LEVEL).astype(np.int64) - i.min()
+        cj = np.floor(y[here] / EVIDENCE_LEVEL).astype(np.int64) - j.min()
+        inside = (ci >= 0) & (cj >= 0) & (ci < depth.shape[1]) & (cj < depth.shape[0])
+        out[rows[here[inside]], cols[here[inside]]] = depth[cj[inside], ci[inside]]
+    return out
 
 
 def _noise(db: Database, before: str, after: str) -> float:
@@ -356,7 +389,12 @@ def stable_cells(dh: NDArray[np.float64]) -> NDArray[np.bool_]:
 
 
 def estimate_shift(
-    before: Raster, after: Raster, *, method: str | Coregistration = Coregistration.AUTO, noise: float = 0.0
+    before: Raster,
+    after: Raster,
+    *,
+    method: str | Coregistration = Coregistration.AUTO,
+    noise: float = 0.0,
+    depth: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> Shift:
     """The shift that aligns ``after`` to ``before`` (two surfaces on one grid), by ``method``.
 
@@ -365,6 +403,12 @@ def estimate_shift(
     (beyond :data:`SIGNIFICANCE` standard errors) and material: where it moves heights by more
     than ``noise`` (m, the surveys' own ground noise), a horizontal shift through the slope of
     the terrain's steepest tenth. The estimates are reported whether they apply or not.
+
+    With ``depth``, each surface's depth over its own ground returns per cell
+    (:mod:`tdb.evidence`), the spread (``nmad``) is that of the change the ground evidence
+    supports (:func:`tdb.evidence.supported_change`) on stable terrain, as a comparison tests it:
+    where vegetation taken for ground lifts one surface over ground that survey saw, the
+    difference there is no error of the surfaces.
     """
     m = parse(Coregistration, method)
     if m is Coregistration.NONE:
@@ -394,18 +438,28 @@ def estimate_shift(
     dz = half_sample_mode(values)  # not the median: see stable_cells
     sigma_z = nmad(values) / np.sqrt(_independent(len(values), cell))
     vertical = m is not Coregistration.AUTO or (abs(dz) > SIGNIFICANCE * sigma_z and abs(dz) > noise)
+    spread = nmad(values) if depth is None else _supported_spread(dh - (dz if vertical else 0.0), depth)
     return Shift(
         dx=dx,
         dy=dy,
         dz=dz,
         sigma_xy=sigma_xy,
         sigma_z=float(sigma_z),
-        nmad=nmad(values),
+        nmad=spread,
         stable_share=share,
         method=m,
         horizontal=bool(horizontal),
         vertical=bool(vertical),
     )
+
+
+def _supported_spread(
+    residual: NDArray[np.float64], depth: tuple[NDArray[np.float64], NDArray[np.float64]]
+) -> float:
+    """NMAD of the supported change on the cells where it is stable. Where the evidence cuts
+    most of them to zero it is small, and the surveys' own noise bounds the level of detection."""
+    supported = supported_change(residual.reshape(-1, 1), np.stack([d.ravel() for d in depth]))[:, 0]
+    return nmad(supported[stable_cells(supported)])
 
 
 STEEP = 90  # percentile: a horizontal shift shows on the steepest tenth of the terrain

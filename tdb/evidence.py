@@ -93,3 +93,17 @@ class TileEvidence:
     def supported_share(self) -> float:
         """Share of the tiles whose surface is seen well enough for a change to be claimed."""
         return float((self.support >= MIN_SUPPORT).mean()) if len(self) else 0.0
+
+
+def supported_change(dz: NDArray[np.float64], depth: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The height change at each tile's nodes (``dz``, tiles × nodes) that both surveys' ground
+    evidence supports: a rise less the later surface's depth over its ground returns, a
+    fall less the earlier one's (``depth``, 2 × tiles), never past zero.
+
+    The survey whose surface stands higher saw ground returns at the lower level through what
+    its filter took for ground (low vegetation's top): the ground it saw did not move. A mound
+    raised or a ditch dug leaves no return under the higher surface."""
+    with np.errstate(invalid="ignore"):
+        rise = np.maximum(dz - depth[1][:, None], 0.0)
+        fall = np.minimum(dz + depth[0][:, None], 0.0)
+        return np.where(dz > 0, rise, fall)

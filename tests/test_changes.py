@@ -17,7 +17,7 @@ import tdb
 from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
 from ingest.synth.scene import Feature
-from queries.changes import _kind, _may_move, _surface, detect, level_of_detection
+from queries.changes import _kind, _may_move, _surface, detect, level_of_detection, outline
 from tdb.cli import main
 from tdb.cloud import from_arrays
 
@@ -75,6 +75,12 @@ def test_dug_and_filled_ditches_are_found_and_typed(tmp_path):
             inside = dod.ravel()[shapely.contains_xy(change.area, np.asarray(x), np.asarray(y))]
             assert np.sign(np.nanmedian(inside)) == np.sign(change.dz), change.kind
             assert abs(np.nanpercentile(inside, 50)) > level_of_detection(db, "a", "b"), change.kind
+    # outlined at the node spacing, the regions cover the change, not a tile's ring around it
+    truth = shapely.union_all([c.area for c in changes if c.terrain and abs(c.dz) >= 0.5])
+    reported = shapely.union_all([g for g, _ in regions])
+    overlap = reported.intersection(truth).area
+    assert overlap / reported.union(truth).area > 0.65
+    assert reported.area < 1.25 * truth.area
 
 
 @pytest.mark.slow
@@ -266,3 +272,16 @@ def test_no_tiles_to_judge_is_no_tile_moved() -> None:
 
     empty = np.zeros((0, 5, 5))
     assert _may_move(empty, empty, np.zeros(0)).shape == (0,)
+
+
+def test_a_region_is_outlined_by_the_nodes_that_moved_its_way():
+    xg, yg = np.array([10, 12]), np.array([20, 20])
+    dz = np.zeros((2, 9))
+    dz[0, [0, 3, 6]] = 0.5  # the first tile's west column of nodes rose
+    dz[0, 4] = -0.5  # its centre fell: against the region's rise
+    dz[1, 8] = 0.05  # within the LoD
+    geom = outline(xg, yg, dz, np.array([0.2, 0.2]), 0.5, level=2)
+    assert geom.area == pytest.approx(3.0)  # three nodes' 1 m cells
+    assert geom.bounds == pytest.approx((9.5, 19.5, 10.5, 22.5))
+    # where no node moved the region's way, its tiles outline it
+    assert outline(xg, yg, -dz, np.array([0.6, 0.6]), 0.5, level=2).area == pytest.approx(8.0)

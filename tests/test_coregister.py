@@ -85,6 +85,24 @@ def test_vertical_only_leaves_the_plan_alone_and_none_does_nothing():
     assert not none.applied and none.apply(after).data is after.data
 
 
+def test_the_spread_is_that_of_the_change_the_ground_evidence_supports():
+    """The later survey took shrubs' top for ground on a third of the site, 0.05–0.2 m over the
+    ground it saw there: its surface stands over its returns by that depth. The spread a level
+    of detection is drawn from is the surveys' noise, not the shrubs'."""
+    rng = np.random.default_rng(8)
+    before, after = grids(0.0, 0.0, 0.0, seed=6, change=False)
+    shrubs = np.zeros(after.shape, bool)
+    shrubs[:, :80] = True
+    lift = np.where(shrubs, rng.uniform(0.05, 0.2, after.shape), 0.0)
+    after = Raster(after.data + lift, after.x0, after.y1, after.cell)
+    plain = estimate_shift(before, after, method=Coregistration.AUTO, noise=0.04)
+    none = np.zeros(after.shape)
+    seen = estimate_shift(before, after, method=Coregistration.AUTO, noise=0.04, depth=(none, lift))
+    assert plain.nmad > 0.06  # the shrubs widen the raw differences
+    assert seen.nmad < 0.05  # 0.03 m noise in each survey: 0.042 m together
+    assert abs(seen.dz - plain.dz) < 1e-9  # the shift itself is estimated on the raw surfaces
+
+
 def test_resample_moves_by_the_fraction_asked_and_keeps_holes():
     data = np.arange(20.0).reshape(4, 5)
     data[1, 1] = np.nan
