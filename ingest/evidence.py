@@ -17,6 +17,9 @@ NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic
 TOLERANCE = 0.1  # m per m: what a neighbour carried along the surface may fall short by
 CHUNK = 200_000  # points per batch of plane fits (bounds the memory of the neighbourhoods)
 DEEP_SHARE = 0.2  # a tile's depth is what this share of its ground returns reach, not one return
+# tiles across the window whose median lift is a tile's layer: the least in which a band of two
+# lifted tiles (the edges of a step or of a narrow wall, either side) is a minority in every window
+LAYER_TILES = 5
 
 
 def envelope_lift(
@@ -59,14 +62,16 @@ def tile_evidence(
     *,
     spacing: float,
     surface: Raster,
+    noise: float = 0.0,
 ) -> TileEvidence:
     """Evidence of the 2 m tiles ``xg``, ``yg`` from the ground returns ``ground_xyz``, for a
-    survey whose pulses lie ``spacing`` m apart and the dense model ``surface`` made from them.
+    survey whose pulses lie ``spacing`` m apart with ground ``noise`` (σ, m) and the dense model
+    ``surface`` made from them.
 
     A tile's lift is how far its highest ground return stands above its neighbourhood's lower
     envelope (:func:`envelope_lift`); a tile without any takes its neighbours' (3 × 3 tiles),
     the gap saying the rest. Its depth is how far the surface stands above its ground returns
-    (:func:`tile_depth`).
+    (:func:`tile_depth`), its layer the lift of the tiles around it (:func:`tile_layer`).
     """
     xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
     if len(xg) == 0:
@@ -74,11 +79,53 @@ def tile_evidence(
     g = np.asarray(ground_xyz, float)
     lift = _tile_lift(g, xg, yg)
     depth = tile_depth(g, surface, xg, yg)
+    layer = tile_layer(lift, xg, yg, floor=noise_lift(spacing, noise))
     radius = SUPPORT_SPACINGS * spacing
     distance = _node_distance(g, xg, yg, radius)
     support = (distance <= radius).mean(axis=1)
     gap = np.maximum(distance - radius, 0.0).mean(axis=1)
-    return TileEvidence(xg, yg, *(a.astype(np.float32) for a in (lift, gap, depth, support)))
+    return TileEvidence(xg, yg, *(a.astype(np.float32) for a in (lift, gap, depth, layer, support)))
+
+
+def tile_layer(
+    lift: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64], *, floor: float = 0.0
+) -> NDArray[np.float64]:
+    """Per 2 m tile (corners ``xg``, ``yg``), the median ``lift`` of the :data:`LAYER_TILES` ×
+    :data:`LAYER_TILES` tiles around it (a tile not given counts as 0), less the ``floor`` that
+    noise alone makes (:func:`noise_lift`), never below 0.
+
+    Where a filter took a layer of vegetation for the ground (the understorey under a closed
+    canopy, through which a few returns reach the ground), every tile's highest ground return
+    stands over the ground seen near it by about the layer's height, so the median over an area
+    keeps it. A step, a bank or a wall lifts the tiles along its edges alone (a quadratic does not
+    follow a step): a band too narrow to be the median of any window."""
+    xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
+    if len(xg) == 0:
+        return np.zeros(0)
+    grid = _TileGrid.of(xg, yg)
+    raster = np.zeros(grid.size, np.float32)
+    at = grid.cells_of_tiles(xg, yg)
+    raster[at] = np.nan_to_num(lift, nan=0.0)
+    median = ndimage.median_filter(raster.reshape(grid.shape), size=LAYER_TILES, mode="constant")
+    return np.maximum(median.ravel()[at].astype(float) - floor, 0.0)
+
+
+NULL_SIDE = 40.0  # m: the side of the bare plane whose tiles' lift :func:`noise_lift` takes
+
+
+def noise_lift(spacing: float, noise: float) -> float:
+    """The median lift (m) of the 2 m tiles of bare, flat ground surveyed with pulses ``spacing`` m
+    apart and ground ``noise`` σ (m): what the noise alone makes of a tile's highest return over
+    its neighbours, whatever the ground. Measured on a plane sampled with a fixed seed, so that
+    the same survey always gets the same figure."""
+    if noise <= 0 or spacing <= 0:
+        return 0.0
+    rng = np.random.default_rng(0)
+    n = round(NULL_SIDE * NULL_SIDE / spacing**2)
+    x, y = rng.uniform(0, NULL_SIDE, n), rng.uniform(0, NULL_SIDE, n)
+    # the tiles a few metres in, whose neighbourhoods lie wholly on the plane
+    xg, yg = (a.ravel().astype(np.int64) for a in np.meshgrid(*[np.arange(8, NULL_SIDE - 8, LEVEL)] * 2))
+    return float(np.median(_tile_lift(np.column_stack([x, y, rng.normal(0.0, noise, n)]), xg, yg)))
 
 
 def tile_depth(

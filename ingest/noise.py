@@ -21,13 +21,19 @@ MIN_FLAT = 0.10  # m: below this a threshold would call noise a form
 NOISE_FACTOR = 5.0  # flat threshold = this × the measured ground noise
 
 
-def ground_noise(ground_xyz: NDArray[np.float64], *, k: int = 10, sample: int = 20_000, seed: int = 0) -> float:
+def ground_noise(
+    ground_xyz: NDArray[np.float64], *, k: int = 10, sample: int = 20_000, seed: int = 0, quantile: float = 50.0
+) -> float:
     """Robust σ (m) of ground heights about planes fitted to their ``k`` nearest neighbours.
 
     The smallest eigenvalue of a neighbourhood's covariance is the variance
     across its best plane; the median over a sample of about ``sample`` neighbourhoods ignores
     breaks of slope and leftover objects. Whether a point is sampled depends on its coordinates
     alone (and ``seed``), not on the order or the company it comes in.
+
+    ``quantile`` (percent) takes another than the median: a low one (:data:`QUIET`) is the
+    spread of the quietest neighbourhoods, bare ground's, where vegetation taken for ground
+    widens the median's.
     """
     xyz = np.asarray(ground_xyz, float)
     if len(xyz) <= k:
@@ -38,7 +44,10 @@ def ground_noise(ground_xyz: NDArray[np.float64], *, k: int = 10, sample: int = 
     centred = pts - pts.mean(axis=1, keepdims=True)
     cov = np.einsum("nki,nkj->nij", centred, centred) / (k - 3)
     smallest = np.linalg.eigvalsh(cov)[:, 0]
-    return float(np.sqrt(np.median(np.maximum(smallest, 0.0))))
+    return float(np.sqrt(np.percentile(np.maximum(smallest, 0.0), quantile)))
+
+
+QUIET = 25.0  # percent: the quietest quarter of a survey's neighbourhoods is bare ground's
 
 
 PILOT_SQUARE = 256.0  # m: the squares the flat threshold's noise is measured in

@@ -15,7 +15,7 @@ from ingest.evidence import tile_evidence
 from ingest.ground import classify_ground
 from ingest.ground.grids import quantised
 from ingest.ground.hills import point_spacing
-from ingest.noise import fullest_square, ground_noise, pilot_threshold, square_counts
+from ingest.noise import QUIET, fullest_square, ground_noise, pilot_threshold, square_counts
 from ingest.objects import Objects, find_objects
 from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
@@ -118,7 +118,9 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
     model = build(dtm, flat_threshold=threshold, n=SUBGRID)
     finest = model.levels[min(model.levels)]
     spacing = quantised(point_spacing(metric.xyz[:, :2]))
-    evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm)
+    evidence = tile_evidence(
+        gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm, noise=ground_noise(gxyz, quantile=QUIET)
+    )
     objects = (
         find_objects(metric, ground, dtm, progress=report, skip=excluded(metric.classification, o.exclude))
         if o.objects

@@ -82,7 +82,7 @@ class TileJudgement:
 
     lod: NDArray[np.float64]  # m: the level of detection
     seen: NDArray[np.bool_]  # both versions saw the tile's ground well enough
-    depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface stands above its ground
+    depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface may stand above its ground
 
 
 def tile_lod(
@@ -111,9 +111,10 @@ def tile_lod(
 def _per_tile(
     evidence: TileEvidence, xg: NDArray[np.int64], yg: NDArray[np.int64], level: int
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Mean variance of the relief hidden in gaps, mean support and mean depth (0 where none is
-    held) of the 2 m tiles making up each tile of ``level``. The lift stays out: a wall built or
-    a bank lifts a tile as vegetation does."""
+    """Mean variance of the relief hidden in gaps, mean support and mean standing (how far the
+    surface may stand over the ground seen, 0 where nothing is held) of the 2 m tiles making up
+    each tile of ``level``. A tile's own lift stays out: a wall built or a bank lifts the tiles
+    along its edges as vegetation does (the layer, the lift over an area, does not)."""
     k = level // EVIDENCE_LEVEL
     if k == 1:
         e = evidence.at(xg, yg)
@@ -121,7 +122,7 @@ def _per_tile(
         fx, fy = _split(xg // EVIDENCE_LEVEL // k, yg // EVIDENCE_LEVEL // k, k)
         e = evidence.at(fx * EVIDENCE_LEVEL, fy * EVIDENCE_LEVEL)
     variance = (GAP_SLOPE * e.gap.astype(float)) ** 2
-    depth = np.nan_to_num(e.depth.astype(float), nan=0.0)
+    depth = e.standing
     with np.errstate(invalid="ignore"):
         mean = np.nanmean(variance.reshape(len(xg), k * k), axis=1)
     per = (len(xg), k * k)

@@ -218,9 +218,9 @@ DEPTH_STRIP = 1024.0  # m: the evidence is read in strips this wide, so a large 
 
 
 def depth_grid(db: Database, version: str, grid: Raster, held: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """The version's depth of surface over its ground returns (:mod:`tdb.evidence`) at the
-    ``held`` cells of ``grid``, from the 2 m tile holding each centre (0 elsewhere and where the
-    version holds none)."""
+    """How far the version's surface may stand over the ground it saw (its evidence's standing,
+    :mod:`tdb.evidence`) at the ``held`` cells of ``grid``, from the 2 m tile holding each centre
+    (0 elsewhere and where the version holds none)."""
     out = np.zeros(grid.shape)
     rows, cols = np.nonzero(held)
     x = grid.x0 + (cols + 0.5) * grid.cell
@@ -234,7 +234,7 @@ def depth_grid(db: Database, version: str, grid: Raster, held: NDArray[np.bool_]
             continue
         i, j = evidence.xg // EVIDENCE_LEVEL, evidence.yg // EVIDENCE_LEVEL
         depth = np.zeros((int(j.max() - j.min()) + 1, int(i.max() - i.min()) + 1))
-        depth[j - j.min(), i - i.min()] = np.nan_to_num(evidence.depth.astype(float), nan=0.0)
+        depth[j - j.min(), i - i.min()] = evidence.standing
         ci = np.floor(x[here] / EVIDENCE_LEVEL).astype(np.int64) - i.min()
         cj = np.floor(y[here] / EVIDENCE_LEVEL).astype(np.int64) - j.min()
         inside = (ci >= 0) & (cj >= 0) & (ci < depth.shape[1]) & (cj < depth.shape[0])

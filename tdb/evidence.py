@@ -17,6 +17,15 @@ the ground seen through it. Two figures per tile say how much to trust it:
   filter took low vegetation's top for the ground beside ground seen through it, the
   surface runs between the two and the ground seen lies under it: that survey saw the
   lower level, so a rise of the surface there is not evidence that the ground rose.
+- ``layer``: how thick a layer taken for ground the tile lies in: the median lift of the
+  tiles around it (:func:`ingest.evidence.tile_layer`). Under a closed canopy few returns
+  reach the ground, and a filter takes the understorey for it: the ground seen is then too
+  small a share of a tile's returns for its depth to show, but every tile's highest return
+  stands over the ground seen nearby by about the understorey's height. A step lifts the
+  tiles along its edge alone, a line the median over an area passes over.
+
+``standing`` is the more of depth and layer: how far the surface may stand above the
+ground its survey saw.
 
 A change between two versions is claimed only where both surfaces are seen well
 enough (:data:`MIN_SUPPORT`), beyond a level of detection grown by the relief both
@@ -48,15 +57,17 @@ class TileEvidence:
     lift: NDArray[np.float32]  # m: RMS height of the tile's returns over their lower envelope
     gap: NDArray[np.float32]  # m: mean distance of its nodes beyond the support radius
     depth: NDArray[np.float32]  # m: how far its surface stands above its ground returns
+    layer: NDArray[np.float32]  # m: the median lift of the tiles around it
     support: NDArray[np.float32]  # share of its nodes with a ground return within the radius
 
-    # support last: a stored tile is held where it is set (:func:`tdb.blocks.evidence_from_blocks`)
-    FIELDS = ("lift", "gap", "depth", "support")
+    # support last: a stored tile is held where it is set (:func:`tdb.blocks.evidence_from_blocks`);
+    # a field added later goes before it, and reads NaN from pages written before it was
+    FIELDS = ("lift", "gap", "depth", "layer", "support")
 
     @classmethod
     def empty(cls) -> TileEvidence:
         none = np.empty(0, np.float32)
-        return cls(np.empty(0, np.int64), np.empty(0, np.int64), none, none, none, none)
+        return cls(np.empty(0, np.int64), np.empty(0, np.int64), none, none, none, none, none)
 
     def __len__(self) -> int:
         return len(self.xg)
@@ -82,9 +93,15 @@ class TileEvidence:
         return TileEvidence(xg, yg, *fields)
 
     @property
+    def standing(self) -> NDArray[np.float64]:
+        """How far (m) each tile's surface may stand above the ground its survey saw: the more of
+        its depth and its layer (0 where neither is held)."""
+        return np.maximum(np.nan_to_num(self.depth.astype(float)), np.nan_to_num(self.layer.astype(float)))
+
+    @property
     def deep(self) -> NDArray[np.bool_]:
         """Whether each tile's surface stands at least :data:`DEEP` over its ground returns."""
-        return np.nan_to_num(self.depth) >= DEEP
+        return self.standing >= DEEP
 
     def deep_share(self) -> float:
         """Share of the tiles whose surface stands at least :data:`DEEP` over their ground returns."""

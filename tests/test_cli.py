@@ -122,7 +122,7 @@ def test_info_reports_what_ingest_stored(runner, ingested):
     text = runner.invoke(main, ["info", str(db)])
     assert text.exit_code == 0 and "tiles 2/4/8/16 m: 2500/625/" in text.output
     deep = doc["versions"][0]["stats"]["deep_pct"]
-    assert 0 <= deep <= 100 and f"ground returns in {deep} % of the 2 m tiles" in text.output
+    assert 0 <= deep <= 100 and f"returns saw in {deep} % of the" in text.output
 
 
 def test_aoi_writes_mesh_surface_and_picture(runner, ingested, tmp_path):

@@ -10,7 +10,7 @@ from sqlalchemy import text
 
 import tdb
 from ingest.dtm import dense_model
-from ingest.evidence import envelope_lift, tile_depth, tile_evidence
+from ingest.evidence import envelope_lift, noise_lift, tile_depth, tile_evidence
 from ingest.pipeline import ingest
 from queries.changes import detect, tile_lod
 from tdb.cloud import from_arrays
@@ -258,3 +258,85 @@ def test_evidence_pages_written_before_the_depth_read_it_as_nan():
     e = TileEvidence(x, np.zeros(2, np.int64), *fields)
     np.testing.assert_allclose(np.sort(e.support), np.sort(support), atol=1e-3)
     assert np.isnan(e.depth).all()
+
+
+def _understorey(g: np.ndarray, rng: np.random.Generator, where: np.ndarray, *, seen: float = 0.12) -> np.ndarray:
+    """A closed canopy's understorey taken for ground over ``where``: all but ``seen`` of the
+    returns there stand 0.25-0.4 m up, within a ground filter's threshold."""
+    return _shrubs(g, rng, where, share=1 - seen, heights=(0.25, 0.4))
+
+
+def test_an_understorey_taken_for_ground_is_a_layer_where_its_depth_misses_it():
+    rng = np.random.default_rng(31)
+    g = _ground(size=60, seed=2)
+    g = _understorey(g, rng, g[:, 0] > 30)
+    xg, yg = _tiles(60)
+    e = tile_evidence(g, xg, yg, spacing=0.5, surface=_surface(g))
+    bare, covered = _inner(xg, yg, 6, 24), (xg >= 36) & _inner(xg, yg, 6, 54)
+    # few returns see the ground: the depth a fifth of them reach is the understorey's own
+    assert np.median(e.depth[covered]) < 0.1
+    assert np.median(e.layer[covered]) > 0.2
+    assert np.median(e.layer[bare]) < 0.02
+    np.testing.assert_allclose(e.standing, np.maximum(e.depth, e.layer))
+
+
+def test_a_wall_lifts_its_edges_but_makes_no_layer():
+    """A wall 2 m wide and 1.5 m high taken for ground: its edges' tiles are lifted (a quadratic does
+    not follow a step), a band the median over 5 × 5 tiles passes over."""
+    g = _ground(size=60, seed=3)
+    wall = np.abs(g[:, 0] - 31) < 1
+    g[wall, 2] += 1.5
+    xg, yg = _tiles(60)
+    e = tile_evidence(g, xg, yg, spacing=0.5, surface=_surface(g))
+    near = (np.abs(xg + 1 - 31) < 4) & _inner(xg, yg, 6, 54)
+    assert np.max(e.lift[near]) > 0.3
+    assert np.max(e.layer[near]) < 0.05
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.floats(0.01, 0.08), st.sampled_from([0.35, 0.5, 0.7, 1.0]), st.integers(1, 1000))
+def test_noise_alone_makes_no_layer(sigma, spacing, seed):
+    """A bare plane with the noise and spacing the floor was measured for: its median layer is 0,
+    with any other sample of the noise, and the floor grows with the noise."""
+    rng = np.random.default_rng(seed)
+    n = int(50 * 50 / spacing**2)
+    x, y = rng.uniform(0, 50, n), rng.uniform(0, 50, n)
+    g = np.column_stack([x, y, 3 + 0.02 * x + rng.normal(0, sigma, n)])
+    xg, yg = _tiles(50)
+    e = tile_evidence(g, xg, yg, spacing=spacing, surface=_surface(g), noise=sigma)
+    inner = _inner(xg, yg, 8, 42)
+    assert np.median(e.layer[inner]) < 0.25 * sigma + 0.005
+    assert noise_lift(spacing, sigma) <= noise_lift(spacing, 1.5 * sigma)
+    assert noise_lift(spacing, 0.0) == 0.0
+
+
+def test_an_understorey_is_no_rise_but_a_platform_is(tmp_path, monkeypatch):
+    """The later survey sees the ground through a closed canopy in one return of eight and takes
+    the understorey for it: the layer (a lower bound of its height, the lift's tolerance less)
+    takes most of the claim there away; a platform raised 0.6 m beside it is reported."""
+    import shapely
+
+    rng = np.random.default_rng(41)
+    before = _ground(size=120, density=3, seed=5, noise=0.03)
+    after = _ground(size=120, density=3, seed=6, noise=0.03)
+    platform = (np.abs(after[:, 0] - 30) < 12) & (np.abs(after[:, 1] - 60) < 12)
+    after[platform, 2] += 0.6
+    stand = (np.abs(after[:, 0] - 88) < 16) & (np.abs(after[:, 1] - 60) < 16)
+    after = _understorey(after, rng, stand)
+    db = tdb.open(tmp_path / "u.tdb", create=True)
+    ingest(from_arrays(*before.T, crs=CRS), db, version="a")
+    ingest(from_arrays(*after.T, crs=CRS), db, version="b")
+
+    def reported() -> tuple[float, float]:
+        found = detect(db, "a", "b")
+        area = shapely.union_all([shapely.geometry.shape(f["geometry"]) for f in found])
+        return area.intersection(shapely.box(18, 48, 42, 72)).area, area.intersection(
+            shapely.box(72, 44, 104, 76)
+        ).area
+
+    raised, stood = reported()
+    assert raised > 0.9 * 24 * 24
+    monkeypatch.setattr(TileEvidence, "standing", property(lambda e: np.nan_to_num(e.depth.astype(float))))
+    uncut = reported()[1]
+    assert uncut > 0.8 * 32 * 32
+    assert stood < 0.5 * uncut

@@ -93,8 +93,8 @@ def _database_info(path: Path | str, as_json: bool) -> None:
             )
         if s.deep_pct is not None:  # versions from before the depth was kept have none
             click.echo(
-                f"    surface {DEEP} m or more over its own ground returns in {s.deep_pct} % of the 2 m tiles "
-                "(vegetation's top taken for ground: rises there are cut)"
+                f"    surface may stand {DEEP} m or more over the ground its returns saw in {s.deep_pct} % of the "
+                "2 m tiles (vegetation taken for ground: rises there are cut)"
             )
         click.echo(f"    trees {objects[v.name][0]:,}, buildings {objects[v.name][1]:,}")
         if "exclude_classes" in v.params:  # versions from before the option have no record
