@@ -9,7 +9,12 @@ are written 32 × 32 times side by side, 1024 m apart (a multiple of every page'
 ingest uses, one column of copies per part. Each query is timed over 1 km² boxes placed at
 random over the whole area (on the lattice of copies and off it), in a fresh process.
 
-    python -m benchmarks.big_db [--copies 32] [--density 4] [--dir DIR] [--url postgresql://...]
+    python -m benchmarks.big_db [--copies 32] [--after-copies N] [--density 4] [--dir DIR] [--url postgresql://...]
+
+``--after-copies`` writes the re-survey over fewer copies than the first survey (a corner of it),
+where the disk holds the first survey's 1,000 km² but not twice that: the area read and the
+ditch query run over the whole first survey, the diff over boxes inside the corner both cover.
+A version already complete in the target database is kept, so a build cut short goes on.
 
 Results go to ``big_db[_cCOPIES][_dDENSITY][_postgresql].json`` (the suffixes where not the
 defaults).
@@ -98,29 +103,34 @@ def column(part: Part, i: int, copies: int) -> Part:
     )
 
 
-def build(source: Database, target: Database, copies: int) -> dict[str, float]:
+def build(source: Database, target: Database, copies: int, after_copies: int) -> dict[str, float]:
     seconds = {}
-    for version in ("before", "after"):
+    have = {v.name for v in target.versions()}
+    for version, side in (("before", copies), ("after", after_copies)):
+        if version in have:
+            continue
         v = source.version(version)
         part = read_part(source, version)
         x0, y0, x1, y1 = v.stats.bounds or (0.0, 0.0, 0.0, 0.0)
-        bounds = (x0, y0, x1 + (copies - 1) * STEP, y1 + (copies - 1) * STEP)
+        bounds = (x0, y0, x1 + (side - 1) * STEP, y1 + (side - 1) * STEP)
         stats = json.loads(json.dumps(v.stats.to_json()))
         stats["bounds"] = list(bounds)
-        info = VersionInfo(acquired=v.acquired, source=f"{copies}² copies of {v.source}", crs=v.crs)
+        info = VersionInfo(acquired=v.acquired, source=f"{side}² copies of {v.source}", crs=v.crs)
         t0 = time.perf_counter()
         with target.writing(version, info=info) as w:
-            for i in range(copies):
-                c = column(part, i, copies)
+            for i in range(side):
+                c = column(part, i, side)
                 w.add(levels=c.levels, points=c.points, evidence=c.evidence, objects=(c.trees, c.buildings))
-                print(f"{version}: column {i + 1}/{copies}, {time.perf_counter() - t0:.0f} s", flush=True)
+                print(f"{version}: column {i + 1}/{side}, {time.perf_counter() - t0:.0f} s", flush=True)
             w.describe(params=v.params, stats=stats)
         seconds[version] = time.perf_counter() - t0
     return seconds
 
 
-def boxes(db: Database, n: int, seed: int = 0) -> list[tuple[float, float, float, float]]:
-    x0, y0, x1, y1 = db.version("before").stats.bounds or (0.0, 0.0, 0.0, 0.0)
+def boxes(
+    db: Database, n: int, seed: int = 0, *, version: str = "before"
+) -> list[tuple[float, float, float, float]]:
+    x0, y0, x1, y1 = db.version(version).stats.bounds or (0.0, 0.0, 0.0, 0.0)
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(n):
@@ -142,7 +152,7 @@ def queries(db: Database) -> dict[str, Any]:
     box_list = boxes(db, QUERIES)
     aoi = timed(lambda b: db.aoi(b, level=2, version="before"), box_list)
     ditch = timed(lambda b: find(db, "before", "ditch", bbox=b), box_list)
-    diff = timed(lambda b: detect(db, "before", "after", bbox=b), box_list)
+    diff = timed(lambda b: detect(db, "before", "after", bbox=b), boxes(db, QUERIES, version="after"))
     area = db.aoi(box_list[0], level=2, version="before")
     return {
         "aoi_ms": [1000 * s for s in aoi],
@@ -159,29 +169,35 @@ def queries(db: Database) -> dict[str, Any]:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--copies", type=int, default=32)
+    p.add_argument("--after-copies", type=int, help="copies of the re-survey (default: --copies)")
     p.add_argument("--dir", type=Path, default=Path("/tmp/tdb-big"), help="where the databases are made and kept")
     p.add_argument("--density", type=float, default=4.0, help="points per m² of the ingested pair")
     p.add_argument("--url", help="a PostgreSQL database to fill instead of an SQLite file")
     a = p.parse_args()
-    tag = f"_c{a.copies}" * (a.copies != 32) + f"_d{a.density:g}" * (a.density != 4.0)
+    after_copies = a.after_copies or a.copies
+    tag = (
+        f"_c{a.copies}" * (a.copies != 32)
+        + f"_a{after_copies}" * (after_copies != a.copies)
+        + f"_d{a.density:g}" * (a.density != 4.0)
+    )
     work = a.dir / f"d{a.density:g}" if a.density != 4.0 else a.dir
     work.mkdir(parents=True, exist_ok=True)
     km2 = work / "km2.tdb"
     if not km2.exists():
         km2 = km2_pair(work, density=a.density)
-    target_name = a.url or str(a.dir / f"big{a.copies}{tag}.tdb")
-    built = None
-    if a.url or not Path(target_name).exists():
-        with tdb.open(km2) as source, tdb.open(target_name, create=True) as target:
-            built = build(source, target, a.copies)
+    target_name = a.url or str(a.dir / f"big{a.copies}.tdb")
+    with tdb.open(km2) as source, tdb.open(target_name, create=True) as target:
+        built = build(source, target, a.copies, after_copies)
     with tdb.open(target_name) as db:
         bounds = db.version("before").stats.bounds or (0.0, 0.0, 0.0, 0.0)
+        after = db.version("after").stats.bounds or (0.0, 0.0, 0.0, 0.0)
         size = None if a.url else Path(target_name).stat().st_size / 2**20
         doc = {
             "backend": "postgresql" if a.url else "sqlite",
             "copies": a.copies,
             "density": a.density,
             "area_km2": (bounds[2] - bounds[0]) * (bounds[3] - bounds[1]) / 1e6,
+            "after_area_km2": (after[2] - after[0]) * (after[3] - after[1]) / 1e6,
             "rows_2m": db.count("before", table="c2"),
             "points": db.count("before"),
             "build_s": built,
