@@ -54,17 +54,23 @@ PILOT_SQUARE = 256.0  # m: the squares the flat threshold's noise is measured in
 THRESHOLD_STEP = 0.01  # m: the flat threshold in whole centimetres
 
 
-def _sample(xyz: NDArray[np.float64], size: int, seed: int) -> NDArray[np.intp]:
-    """About ``size`` of the points, each chosen by a hash of its x and y (SplitMix64's mixer)."""
-    if len(xyz) <= size:
-        return np.arange(len(xyz))
-    bits = np.ascontiguousarray(xyz[:, :2]).view(np.uint64)
+def coordinate_hash(xy: NDArray[np.float64], seed: int = 0) -> NDArray[np.uint64]:
+    """A 64-bit hash of each point's x and y (SplitMix64's mixer): a choice made by it depends on
+    where a point lies, not on its order or the company it comes in."""
+    bits = np.ascontiguousarray(np.asarray(xy, np.float64)[:, :2]).view(np.uint64)
     with np.errstate(over="ignore"):
         h = bits[:, 0] * np.uint64(0x9E3779B97F4A7C15) ^ bits[:, 1] ^ np.uint64(seed)
         h = (h ^ (h >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
         h = (h ^ (h >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
         h ^= h >> np.uint64(31)
-    keep = h < np.uint64(int(size / len(xyz) * 2.0**64))
+    return h
+
+
+def _sample(xyz: NDArray[np.float64], size: int, seed: int) -> NDArray[np.intp]:
+    """About ``size`` of the points, each chosen by :func:`coordinate_hash`."""
+    if len(xyz) <= size:
+        return np.arange(len(xyz))
+    keep = coordinate_hash(xyz, seed) < np.uint64(int(size / len(xyz) * 2.0**64))
     return np.flatnonzero(keep)
 
 

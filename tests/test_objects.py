@@ -400,3 +400,45 @@ def test_classify_and_trees_commands_write_what_qgis_opens(tmp_path) -> None:
     )
     r = runner.invoke(main, ["trees", str(src), "--out", str(tmp_path / "t.txt")])
     assert r.exit_code != 0 and r.stderr.startswith("tdb: error:") and len(r.stderr.strip().splitlines()) == 1
+
+
+# --- the shortfall of a crown's highest return below its top ---------------------------------
+
+
+def _paraboloid_crowns(density: float, seed: int, *, depth: float = 0.0) -> tuple[np.ndarray, ...]:
+    """Crowns z = H − k r² of radius 3 m on a grid 10 m apart, sampled at ``density`` returns
+    per m², each return ``depth`` (mean, exponential) into the crown; and their curvatures."""
+    rng = np.random.default_rng(seed)
+    side = 100.0
+    n = rng.poisson(density * side * side)
+    x, y = rng.uniform(0, side, n), rng.uniform(0, side, n)
+    cx, cy = np.floor(x / 10) * 10 + 5, np.floor(y / 10) * 10 + 5
+    r2 = (x - cx) ** 2 + (y - cy) ** 2
+    k = 0.4 + 0.08 * ((cx + cy) // 10 % 5)  # 0.4–0.72 per m: each crown its own
+    inside = r2 < 9
+    seg = np.where(inside, (cy // 10 * 10 + cx // 10).astype(np.intp), -1)
+    z = 20 - k * r2 - (rng.exponential(depth, n) if depth else 0.0)
+    return seg, z, np.column_stack([x, y]), k[inside]
+
+
+@pytest.mark.parametrize("density", [2.0, 8.0])
+def test_the_shortfall_of_a_paraboloid_is_its_curvature_over_pi_times_the_density(density: float) -> None:
+    """The highest of a paraboloid's returns falls short of its top by k / (π ρ) on average: the
+    survey's own halves and quarters find it within a third, with no knowledge of k."""
+    from ingest.objects.apex import sampling_shortfall
+
+    found = [sampling_shortfall(*_paraboloid_crowns(density, seed)[:3]) for seed in range(4)]
+    expected = float(np.mean(_paraboloid_crowns(density, 0)[3])) / (np.pi * density)
+    assert np.mean(found) == pytest.approx(expected, rel=0.33)
+
+
+def test_the_shortfall_grows_with_the_depth_into_the_crown_and_is_zero_without_crowns() -> None:
+    from ingest.objects.apex import sampling_shortfall
+
+    seg, z, xy, _ = _paraboloid_crowns(2.0, 1)
+    deep = sampling_shortfall(*_paraboloid_crowns(2.0, 1, depth=0.4)[:3])
+    assert deep > sampling_shortfall(seg, z, xy) + 0.05
+    assert sampling_shortfall(np.full(len(z), -1), z, xy) == 0.0
+    # one return per crown: no halves to compare
+    first = np.unique(seg[seg >= 0], return_index=True)[1]
+    assert sampling_shortfall(seg[first], z[first], xy[first]) == 0.0

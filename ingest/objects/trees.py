@@ -6,11 +6,14 @@ by the active contour of the ground filter applied from above: returns deeper th
 ``penetration`` under the crown surface do not attract the net. It is smoothed at three
 scales; on each, every vegetation cell climbs to its local maximum (:mod:`climb`), and
 the scales are combined crown by crown by paraboloid fits (:mod:`crowns`). Each segment is
-a tree: its highest return gives the position and the height, its area the crown diameter.
+a tree: its highest return gives the position, and the height less the shortfall of a
+crown's highest return below its top (:mod:`apex`, measured on the survey), its area the crown
+diameter.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,6 +22,7 @@ from scipy import ndimage
 
 from ingest.ground.contour import ContourParams, relax_on
 from ingest.ground.grids import Grid
+from ingest.objects.apex import sampling_shortfall
 from ingest.objects.climb import climb
 from ingest.objects.cover import Cover, cell_size
 from ingest.objects.crowns import choose_scales
@@ -72,7 +76,10 @@ def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = N
     scales = [climb(smoothed(canopy, mask, s / grid.cell), mask) for s in sorted(p.scales, reverse=True)]
     min_cells = max(1, int(np.ceil(p.min_crown_area / grid.cell**2)))
     labels = choose_scales(scales, canopy, grid.cell, noise=p.noise, min_cells=min_cells)
-    return _measure(labels, top, xyz, min_cells)
+    trees = _measure(labels, top, xyz, min_cells)
+    crown = np.where(tall[near], labels.ravel()[top.cells_of(xyz[:, :2])], -1)
+    shortfall = sampling_shortfall(crown, cover.height[near], xyz[:, :2])
+    return [dataclasses.replace(t, height=t.height + shortfall) for t in trees]
 
 
 def _inside(grid: Grid, xy: NDArray[np.float64]) -> NDArray[np.bool_]:
