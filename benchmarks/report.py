@@ -296,6 +296,33 @@ def peers_section(out: list[str]) -> None:
     out.append("")
 
 
+def dask_section(out: list[str]) -> None:
+    doc = _load("dask_cluster")
+    if not doc:
+        return
+    runs, same = doc["runs"], doc["identical"]
+    out += [
+        "## Blocked ingest on a dask.distributed cluster",
+        "",
+        f"`python -m benchmarks.dask_cluster` on `{doc['file']}` ({doc['points']:,} points, "
+        f"{doc['block_m']:.0f} m blocks): a `dask scheduler` and {doc['workers']} `dask worker` processes "
+        f"(one thread each) started on this machine, on loopback; one process per run. Machine: {_machine(doc)}.",
+        "",
+        "| run | seconds | against one worker |",
+        "|---|---|---|",
+        f"| local pool, {doc['workers']} workers | {runs['pool']['seconds']:.1f} | {doc['pool_speedup']:.2f} × |",
+        f"| cluster, {doc['workers']} workers | {runs['cluster']['seconds']:.1f} "
+        f"| {doc['cluster_speedup']:.2f} × |",
+        f"| local, one worker | {runs['one_worker']['seconds']:.1f} | 1 × |",
+        "",
+        f"Cluster against the local pool: **{doc['cluster_over_pool']:.2f} ×** its time (target within 10 %). "
+        "Same version as the pool's: "
+        + ", ".join(f"{k.replace('_', ' ')} {'yes' if v else 'NO'}" for k, v in same.items())
+        + ".",
+        "",
+    ]
+
+
 def blocked_section(out: list[str]) -> None:
     doc = _load("blocked_ingest")
     if not doc:
@@ -685,6 +712,7 @@ def main() -> None:
         blocked_section,
         large_area_section,
         big_db_section,
+        dask_section,
         copc_section,
     )
     for section in sections:

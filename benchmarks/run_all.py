@@ -26,6 +26,7 @@ MODULES = (
     "coregister_synth",
     "coregister_peers",
     "copc_read",
+    "dask_cluster",
     "objects_cv",
     "objects_speed",
 )

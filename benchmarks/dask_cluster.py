@@ -1,0 +1,151 @@
+"""A blocked ingest on a real dask.distributed cluster beside the local process pool (issue 25).
+
+A ``dask scheduler`` and two ``dask worker`` processes (one thread each, as a user starts them:
+``dask scheduler`` and ``dask worker tcp://host:8786``) are started on this machine, on the loopback
+address only. The same file is ingested block by block three times, each in its own process: with
+the local pool of two workers, on the cluster, and with one local worker. Reported: the seconds of
+each, the cluster against the pool (target: within 10 %), and whether the cluster's version is
+the pool's, tile for tile at every level and kept point for kept point.
+
+    python -m benchmarks.dask_cluster [--file isprs/FSite5_orig-utm.laz] [--block 512]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import tdb
+from benchmarks.common import DATA, save
+from tdb.tiles import LEVELS
+
+WORKERS = 2
+START_SECONDS = 60  # how long the scheduler and workers may take to come up
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@contextmanager
+def local_cluster(workdir: Path) -> Iterator[str]:
+    """A scheduler and :data:`WORKERS` workers as separate processes on 127.0.0.1; their address."""
+    dask = shutil.which("dask", path=str(Path(sys.executable).parent)) or "dask"
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    port = address.rsplit(":", 1)[1]
+    logs = [open(workdir / f"dask-{i}.log", "w") for i in range(WORKERS + 1)]
+    procs = [
+        subprocess.Popen(
+            [dask, "scheduler", "--host", "127.0.0.1", "--port", port, "--no-dashboard"],
+            stdout=logs[0],
+            stderr=subprocess.STDOUT,
+        )
+    ]
+    try:
+        for i in range(WORKERS):
+            procs.append(
+                subprocess.Popen(
+                    [dask, "worker", address, "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1"],
+                    stdout=logs[i + 1],
+                    stderr=subprocess.STDOUT,
+                    cwd=workdir,
+                )
+            )
+        from distributed import Client
+
+        with Client(address, timeout=START_SECONDS) as client:
+            client.wait_for_workers(WORKERS, timeout=START_SECONDS)
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+        for f in logs:
+            f.close()
+
+
+def _run(kind: str, src: str, db_path: str, block: float, address: str) -> None:
+    """One blocked ingest in this process; prints its seconds as JSON."""
+    from ingest.blocked import Blocking, ingest_blocked
+
+    db = tdb.open(db_path, create=True)
+    blocking = Blocking(
+        block=block,
+        workers=1 if kind == "one_worker" else WORKERS,
+        scheduler=address if kind == "cluster" else None,
+    )
+    t0 = time.perf_counter()
+    ingest_blocked(src, db, version=kind, blocking=blocking)
+    print(json.dumps({"seconds": time.perf_counter() - t0}))
+
+
+def _identical(db: Any, a: str, b: str) -> dict[str, bool]:
+    """Whether versions ``a`` and ``b`` hold the same tiles at every level and the same kept points."""
+    out = {}
+    for level in LEVELS:
+        ta, tb = (db.tiles(v, level=level) for v in (a, b))
+        out[f"tiles_{level}m"] = all(np.array_equal(x, y) for x, y in zip(ta, tb))
+    pa, pb = (db.points(v, level=2) for v in (a, b))
+    out["kept_points"] = all(np.array_equal(x, y) for x, y in zip(pa, pb))
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--file", default="isprs/FSite5_orig-utm.laz")
+    parser.add_argument("--block", type=float, default=512.0)
+    parser.add_argument("--run", nargs=5, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.run:
+        kind, src, db_path, block, address = args.run
+        _run(kind, src, db_path, float(block), address)
+        return
+    src = str(DATA / args.file)
+    with tempfile.TemporaryDirectory() as tmp:
+        db_path = str(Path(tmp) / "d.tdb")
+
+        def child(kind: str, address: str = "-") -> dict[str, float]:
+            cmd = [sys.executable, "-m", "benchmarks.dask_cluster", "--run", kind, src, db_path, str(args.block)]
+            out = subprocess.run([*cmd, address], check=True, capture_output=True)
+            return dict(json.loads(out.stdout.decode().strip().splitlines()[-1]))
+
+        runs = {"pool": child("pool")}
+        with local_cluster(Path(tmp)) as address:
+            runs["cluster"] = child("cluster", address)
+        runs["one_worker"] = child("one_worker")
+        db = tdb.open(db_path)
+        doc = {
+            "file": args.file,
+            "points": db.version("pool").stats.points,
+            "block_m": args.block,
+            "workers": WORKERS,
+            "runs": runs,
+            "cluster_over_pool": runs["cluster"]["seconds"] / runs["pool"]["seconds"],
+            "pool_speedup": runs["one_worker"]["seconds"] / runs["pool"]["seconds"],
+            "cluster_speedup": runs["one_worker"]["seconds"] / runs["cluster"]["seconds"],
+            "identical": _identical(db, "pool", "cluster"),
+        }
+    print(doc)
+    print(save("dask_cluster", doc))
+
+
+if __name__ == "__main__":
+    main()
