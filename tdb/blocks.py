@@ -137,7 +137,9 @@ def points_from_blocks(
             keep &= (x >= x0) & (x <= x1)
         if not (y0 <= by * POINT_BLOCK and (by + 1) * POINT_BLOCK <= y1):
             keep &= (y >= y0) & (y <= y1)
-        parts.append((x[keep], y[keep], z[keep], n[keep]))
+        # a block wholly inside whose points all belong to the level is read as it is stored:
+        # the one copy is the concatenation below
+        parts.append((x, y, z, n) if keep.all() else (x[keep], y[keep], z[keep], n[keep]))
     if not parts:
         return np.empty(0), np.empty(0), np.empty(0), np.empty(0, np.uint8)
     x, y, z, n = (np.concatenate(p) for p in zip(*parts))
