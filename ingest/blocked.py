@@ -67,7 +67,7 @@ from tdb.errors import CRSError, InputError, Remedy, TdbIOError, TdbWarning, Ver
 from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
-from tdb.threads import one_blas_thread
+from tdb.threads import keep_freed_memory, one_blas_thread
 from tdb.tiles import LEVELS, SUBGRID, tile_key
 from tdb.units import to_metres, units_of
 
@@ -452,6 +452,8 @@ def _one_block_args(job: Job) -> tuple[int, BlockResult | None]:
 def _one_block_at(
     k: int, blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str
 ) -> tuple[int, BlockResult | None]:
+    """A block modelled on a cluster's worker, whose allocator is first let keep freed memory."""
+    keep_freed_memory()
     return k, _one_block(blk, rec, o, crs, source)
 
 
