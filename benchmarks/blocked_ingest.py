@@ -10,11 +10,8 @@ whole run's, which isolates what blocking itself changes.
 
 from __future__ import annotations
 
-import argparse
 import json
 import resource
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -23,7 +20,7 @@ from typing import Any
 import numpy as np
 
 import tdb
-from benchmarks.common import DATA, save
+from benchmarks.common import DATA, file_run_args, run_child, save
 from tdb.tiles import LEVELS
 
 
@@ -91,11 +88,7 @@ def _agreement_map(db: Any, a: str, b: str, block: float) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--file", default="isprs/FSite5_orig-utm.laz")
-    parser.add_argument("--block", type=float, default=512.0)
-    parser.add_argument("--run", nargs=5, help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    args = file_run_args(__doc__)
     if args.run:
         kind, src, db_path, block, threshold = args.run
         _run(kind, src, db_path, float(block), None if threshold == "-" else float(threshold))
@@ -103,11 +96,8 @@ def main() -> None:
     src = str(DATA / args.file)
 
     def child(kind: str, db_path: str, threshold: float | None = None) -> dict[str, float]:
-        cmd = [sys.executable, "-m", "benchmarks.blocked_ingest", "--run", kind, src, db_path, str(args.block)]
-        out = subprocess.run(
-            [*cmd, "-" if threshold is None else repr(threshold)], check=True, capture_output=True
-        )
-        return dict(json.loads(out.stdout.decode().strip().splitlines()[-1]))
+        limit = "-" if threshold is None else repr(threshold)
+        return run_child("blocked_ingest", kind, src, db_path, str(args.block), limit)
 
     with tempfile.TemporaryDirectory() as tmp:
         db_path = str(Path(tmp) / "b.tdb")

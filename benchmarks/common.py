@@ -34,6 +34,29 @@ def machine() -> dict[str, Any]:
     return {"cpu": cpu, "python": platform.python_version(), "date": time.strftime("%Y-%m-%d"), "commit": commit}
 
 
+def file_run_args(description: str | None) -> Any:
+    """``--file`` (under ``../shared/data``) and ``--block`` of a blocked-ingest benchmark, and the
+    hidden ``--run`` (five words) by which it starts each run in a child (:func:`run_child`)."""
+    import argparse
+
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--file", default="isprs/FSite5_orig-utm.laz")
+    parser.add_argument("--block", type=float, default=512.0)
+    parser.add_argument("--run", nargs=5, help=argparse.SUPPRESS)
+    return parser.parse_args()
+
+
+def run_child(module: str, *args: str) -> dict[str, Any]:
+    """Run ``python -m benchmarks.MODULE --run ARGS`` in a fresh process (its own peak memory, a
+    cold start) and return the JSON it prints last."""
+    import sys
+
+    out = subprocess.run(
+        [sys.executable, "-m", f"benchmarks.{module}", "--run", *args], check=True, capture_output=True
+    )
+    return dict(json.loads(out.stdout.decode().strip().splitlines()[-1]))
+
+
 def peak_rss_mib() -> float:
     """Peak resident memory of this process so far (MiB)."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024

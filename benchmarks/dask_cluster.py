@@ -12,7 +12,6 @@ the pool's, tile for tile at every level and kept point for kept point.
 
 from __future__ import annotations
 
-import argparse
 import json
 import shutil
 import socket
@@ -28,7 +27,7 @@ from typing import Any
 import numpy as np
 
 import tdb
-from benchmarks.common import DATA, save
+from benchmarks.common import DATA, file_run_args, run_child, save
 from tdb.tiles import LEVELS
 
 WORKERS = 2
@@ -109,11 +108,7 @@ def _identical(db: Any, a: str, b: str) -> dict[str, bool]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--file", default="isprs/FSite5_orig-utm.laz")
-    parser.add_argument("--block", type=float, default=512.0)
-    parser.add_argument("--run", nargs=5, help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    args = file_run_args(__doc__)
     if args.run:
         kind, src, db_path, block, address = args.run
         _run(kind, src, db_path, float(block), address)
@@ -123,9 +118,7 @@ def main() -> None:
         db_path = str(Path(tmp) / "d.tdb")
 
         def child(kind: str, address: str = "-") -> dict[str, float]:
-            cmd = [sys.executable, "-m", "benchmarks.dask_cluster", "--run", kind, src, db_path, str(args.block)]
-            out = subprocess.run([*cmd, address], check=True, capture_output=True)
-            return dict(json.loads(out.stdout.decode().strip().splitlines()[-1]))
+            return run_child("dask_cluster", kind, src, db_path, str(args.block), address)
 
         runs = {"pool": child("pool")}
         with local_cluster(Path(tmp)) as address:

@@ -214,7 +214,6 @@ def test_vegetation_taken_for_ground_is_no_rise_but_a_platform_is(tmp_path, monk
     """The later survey sees a shrub field as ground beside a platform raised 1 m: the platform is
     reported, the shrubs, whose survey saw the ground through them, are not. Both surveys as
     noisy as TTP 2019's (0.08 m), so the level of detection is a real survey's."""
-    import shapely
 
     from queries import changes
 
@@ -225,27 +224,34 @@ def test_vegetation_taken_for_ground_is_no_rise_but_a_platform_is(tmp_path, monk
     after[platform, 2] += 1.0
     field = (np.abs(after[:, 0] - 90) < 14) & (np.abs(after[:, 1] - 60) < 14)
     after = _shrubs(after, rng, field, share=0.4, heights=(0.3, 0.8))
-    db = tdb.open(tmp_path / "s.tdb", create=True)
-    ingest(from_arrays(*before.T, crs=CRS), db, version="a")
-    ingest(from_arrays(*after.T, crs=CRS), db, version="b")
+    db = _two_versions(tmp_path / "s.tdb", before, after)
     # the shrub field is 5 % of the area: the share of tiles standing over their returns grows by it
     deep = (db.version("a").stats.deep_pct, db.version("b").stats.deep_pct)
     assert deep[0] is not None and deep[1] is not None and deep[1] > deep[0] + 3
-
-    def reported() -> tuple[float, float]:
-        found = detect(db, "a", "b")
-        area = shapely.union_all([shapely.geometry.shape(f["geometry"]) for f in found])
-        return area.intersection(shapely.box(18, 48, 42, 72)).area, area.intersection(
-            shapely.box(76, 46, 104, 74)
-        ).area
-
-    raised, shrubs = reported()
+    boxes = ((18, 48, 42, 72), (76, 46, 104, 74))
+    raised, shrubs = _reported_in(db, *boxes)
     assert raised > 0.95 * 24 * 24
     assert shrubs < 0.15 * 28 * 28
     # the case at hand: the filter kept the shrubs' top, and the surfaces alone report them
     monkeypatch.setattr(changes, "supported_change", lambda dz, depth: dz)
-    uncut = reported()[1]
+    uncut = _reported_in(db, *boxes)[1]
     assert uncut > 0.25 * 28 * 28 and uncut > 2 * shrubs
+
+
+def _two_versions(path, before: np.ndarray, after: np.ndarray):
+    """A database holding the ground ``before`` as version "a" and ``after`` as "b"."""
+    db = tdb.open(path, create=True)
+    ingest(from_arrays(*before.T, crs=CRS), db, version="a")
+    ingest(from_arrays(*after.T, crs=CRS), db, version="b")
+    return db
+
+
+def _reported_in(db, *boxes: tuple[float, float, float, float]) -> list[float]:
+    """The area (m²) reported changed from "a" to "b" inside each box."""
+    import shapely
+
+    area = shapely.union_all([shapely.geometry.shape(f["geometry"]) for f in detect(db, "a", "b")])
+    return [area.intersection(shapely.box(*box)).area for box in boxes]
 
 
 def test_evidence_pages_written_before_the_depth_read_it_as_nan():
@@ -314,7 +320,6 @@ def test_an_understorey_is_no_rise_but_a_platform_is(tmp_path, monkeypatch):
     """The later survey sees the ground through a closed canopy in one return of eight and takes
     the understorey for it: the layer (a lower bound of its height, the lift's tolerance less)
     takes most of the claim there away; a platform raised 0.6 m beside it is reported."""
-    import shapely
 
     rng = np.random.default_rng(41)
     before = _ground(size=120, density=3, seed=5, noise=0.03)
@@ -323,20 +328,11 @@ def test_an_understorey_is_no_rise_but_a_platform_is(tmp_path, monkeypatch):
     after[platform, 2] += 0.6
     stand = (np.abs(after[:, 0] - 88) < 16) & (np.abs(after[:, 1] - 60) < 16)
     after = _understorey(after, rng, stand)
-    db = tdb.open(tmp_path / "u.tdb", create=True)
-    ingest(from_arrays(*before.T, crs=CRS), db, version="a")
-    ingest(from_arrays(*after.T, crs=CRS), db, version="b")
-
-    def reported() -> tuple[float, float]:
-        found = detect(db, "a", "b")
-        area = shapely.union_all([shapely.geometry.shape(f["geometry"]) for f in found])
-        return area.intersection(shapely.box(18, 48, 42, 72)).area, area.intersection(
-            shapely.box(72, 44, 104, 76)
-        ).area
-
-    raised, stood = reported()
+    db = _two_versions(tmp_path / "u.tdb", before, after)
+    boxes = ((18, 48, 42, 72), (72, 44, 104, 76))
+    raised, stood = _reported_in(db, *boxes)
     assert raised > 0.9 * 24 * 24
     monkeypatch.setattr(TileEvidence, "standing", property(lambda e: np.nan_to_num(e.depth.astype(float))))
-    uncut = reported()[1]
+    uncut = _reported_in(db, *boxes)[1]
     assert uncut > 0.8 * 32 * 32
     assert stood < 0.5 * uncut
