@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.bbox import column_range
 from tdb.errors import InputError
 from tdb.raster import MAX_CELLS, Raster
 from tdb.rasterise import rasterise
@@ -54,7 +55,7 @@ def dense_model(
         raise InputError(f"resolution must be positive, got {resolution}")
     xyz = lowest_per_position(np.asarray(ground_xyz, float))
     if bounds is None:
-        lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
+        lo, hi = column_range(xyz[:, :2])
         bounds = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
     xyz, faces = delaunay_mesh(xyz)
     # Posts (cell centres) sit on whole multiples of the resolution, so the 2 m tile

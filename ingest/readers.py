@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tdb.atomic import atomic_path
+from tdb.bbox import column_range
 from tdb.cloud import PointCloud, check_finite, check_spread, from_arrays
 from tdb.errors import FormatError, InputError, TdbIOError
 from tdb.options import LabelScheme, parse
@@ -258,7 +259,7 @@ def _check_header_bounds(path: Path, header: Any, xyz: np.ndarray) -> None:
     if not (maxs > mins).any():
         return  # some writers leave the box unset
     slack = 0.01 * (maxs - mins) + 2 * np.asarray(header.scales, float)
-    lo, hi = xyz.min(axis=0), xyz.max(axis=0)
+    lo, hi = column_range(xyz)
     if (lo < mins - slack).any() or (hi > maxs + slack).any():
         raise FormatError(f"{path}: points lie outside the header's bounding box (corrupt point data)")
 
@@ -315,7 +316,7 @@ def write_las(
     """
     p = Path(path)
     header = laspy.LasHeader(point_format=6, version="1.4")
-    lo = cloud.xyz.min(axis=0)
+    lo = column_range(cloud.xyz)[0]
     header.offsets = np.floor(lo)
     header.scales = np.array([scale, scale, scale])
     if cloud.crs is not None:

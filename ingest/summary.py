@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from tdb.bbox import column_range
 from tdb.cloud import PointCloud
 from tdb.units import epsg_of, units_of
 
@@ -34,7 +35,7 @@ DENSITY_CELL = 2.0
 
 def occupied_area(xy: np.ndarray, *, cell: float) -> float:
     """Area of the ``cell``-sized grid cells that hold at least one point."""
-    ij = np.floor((xy - xy.min(axis=0)) / cell).astype(np.int64)
+    ij = np.floor((xy - column_range(xy)[0]) / cell).astype(np.int64)
     keys = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
     return float(len(np.unique(keys))) * cell * cell
 

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.bbox import column_range
 from tdb.crs import as_crs
 from tdb.errors import DegenerateInputError, InputError
 
@@ -79,7 +80,7 @@ class PointCloud:
     @property
     def bounds(self) -> tuple[float, float, float, float, float, float]:
         """(xmin, ymin, zmin, xmax, ymax, zmax)."""
-        lo, hi = self.xyz.min(axis=0), self.xyz.max(axis=0)
+        lo, hi = column_range(self.xyz)
         return (float(lo[0]), float(lo[1]), float(lo[2]), float(hi[0]), float(hi[1]), float(hi[2]))
 
     def take(self, index: NDArray[Any]) -> PointCloud:

@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import Delaunay, QhullError
 
+from tdb.bbox import column_range
 from tdb.errors import DegenerateInputError
 from tdb.threads import one_blas_thread
 
@@ -48,7 +49,7 @@ def triangulate(xy: NDArray[np.float64]) -> Tin:
         For fewer than three points, or points on one line.
     """
     xy = np.asarray(xy, np.float64)
-    origin = np.floor(xy.min(axis=0)) if len(xy) else np.zeros(2)
+    origin = np.floor(column_range(xy)[0]) if len(xy) else np.zeros(2)
     local = xy - origin
     try:
         tri = Delaunay(local)
@@ -79,7 +80,7 @@ def delaunay_mesh(xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArra
     xyz = np.asarray(xyz, np.float64)
     if len(xyz) < 3:
         raise DegenerateInputError(f"cannot triangulate {len(xyz)} points")
-    origin = np.r_[np.floor(xyz[:, :2].min(axis=0)), 0.0]
+    origin = np.r_[np.floor(column_range(xyz[:, :2])[0]), 0.0]
     local = (xyz - origin)[morton_order(xyz[:, :2])]
     dt = startinpy.DT()
     dt.snap_tolerance = SNAP
@@ -115,8 +116,8 @@ def transforms(xy: NDArray[np.float64], simplices: NDArray[np.intp]) -> NDArray[
 
 def morton_order(xy: NDArray[np.float64]) -> NDArray[np.intp]:
     """An ordering of points along a Z-order curve (spatially coherent)."""
-    lo = xy.min(axis=0)
-    span = max(float((xy.max(axis=0) - lo).max()), 1e-9)
+    lo, hi = column_range(xy)
+    span = max(float((hi - lo).max()), 1e-9)
     q = ((xy - lo) / span * 65535).astype(np.uint64)
     key = np.zeros(len(xy), np.uint64)
     for bit in range(16):

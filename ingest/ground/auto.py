@@ -40,6 +40,7 @@ from ingest.ground.hills import HillShape, point_spacing, smooth_hills
 from ingest.ground.morphology import progressive_opening
 from ingest.ground.outliers import ground_spikes, low_outliers, point_density, sunken_groups
 from ingest.ground.refill import LineFill
+from tdb.bbox import column_range
 from tdb.errors import InputError
 from tdb.fill import NearestFill, fill_lines, fill_nearest
 
@@ -129,9 +130,7 @@ def auto_ground(
     threshold = p.threshold + p.threshold_spacings / np.sqrt(density)
     pts = xyz[keep]
     xy = pts[:, :2]
-    grid = Grid.covering(
-        xy if extent is None else np.array([extent[:2], extent[2:], xy.min(axis=0), xy.max(axis=0)]), p.cell
-    )
+    grid = Grid.covering(xy if extent is None else np.array([extent[:2], extent[2:], *column_range(xy)]), p.cell)
     cells = CellSort.of(grid, pts)
     idx = cells.lowest()
     zmin = heights_of(idx, pts)

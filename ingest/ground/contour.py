@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from ingest.ground.grids import Grid, lowest_per_cell
+from tdb.bbox import column_range
 
 
 @dataclass(frozen=True)
@@ -128,7 +129,7 @@ def active_contour_net(xyz: NDArray[np.float64], *, params: ContourParams | None
     """The converged net on the finest grid (rows south to north)."""
     p = params or ContourParams()
     # Finest cell: about 1.5 point spacings, so that most cells hold a point.
-    lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
+    lo, hi = column_range(xyz[:, :2])
     density = len(xyz) / max(float(np.prod(hi - lo)), 1.0)
     cell = max(p.cell, 1.5 / np.sqrt(density))
     fine = Grid.covering(xyz[:, :2], cell)

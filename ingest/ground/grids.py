@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from tdb.bbox import column_range
 from tdb.errors import InputError
 from tdb.raster import MAX_CELLS
 
@@ -24,8 +25,8 @@ class Grid:
 
     @classmethod
     def covering(cls, xy: NDArray[np.float64], cell: float) -> Grid:
-        lo = np.floor(xy.min(axis=0) / cell) * cell
-        hi = xy.max(axis=0)
+        lo, hi = column_range(xy)
+        lo = np.floor(lo / cell) * cell
         cols = int(np.floor((hi[0] - lo[0]) / cell)) + 1
         rows = int(np.floor((hi[1] - lo[1]) / cell)) + 1
         if rows * cols > MAX_CELLS:

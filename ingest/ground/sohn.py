@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.ground.ground_tin import GroundTin
+from tdb.bbox import column_range
 from tdb.tin import (
     Tin,
     angle_between,
@@ -72,7 +73,7 @@ def description_length(
 
 def initial_corners(xyz: NDArray[np.float64]) -> NDArray[np.float64]:
     """§4.1: rectangle corners just outside the data, z = mean of their TIN neighbours."""
-    lo, hi = xyz[:, :2].min(axis=0), xyz[:, :2].max(axis=0)
+    lo, hi = column_range(xyz[:, :2])
     pad = 0.01 * (hi - lo).max() + 1.0
     corners = np.array(
         [

@@ -15,6 +15,8 @@ from multiprocessing import get_context
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.bbox import column_range
+
 
 def by_tiles(
     xyz: NDArray[np.float64],
@@ -35,7 +37,7 @@ def by_tiles(
     with (tiles done, tiles) as each tile finishes.
     """
     xy = xyz[:, :2]
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    lo, hi = column_range(xy)
     span = np.maximum(hi - lo, 1e-6)
     tiles_wanted = len(xyz) / target_points
     if tiles_wanted <= 1.5:
