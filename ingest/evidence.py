@@ -11,7 +11,6 @@ from scipy.spatial import cKDTree
 
 from tdb.evidence import LEVEL, SUPPORT_SPACINGS, TileEvidence
 from tdb.raster import Raster
-from tdb.tiles import key_pair, tile_key
 
 NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic's six terms
 TOLERANCE = 0.1  # m per m: what a neighbour carried along the surface may fall short by
@@ -218,15 +217,23 @@ def _node_distance(
     g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64], radius: float
 ) -> NDArray[np.float64]:
     """(tiles, 9): distance (m) from each tile's 3 × 3 nodes to the nearest ground return. Beyond
-    a few hundred metres it is capped: the gap term is then large enough to claim nothing."""
+    a few hundred metres it is capped: the gap term is then large enough to claim nothing.
+
+    Neighbouring tiles share nodes: each node is found once, on a raster of the node lattice over
+    the tiles' extent (smaller than the dense model's), and read back by its place."""
     step = LEVEL // 2
-    du, dv = (a.ravel() for a in np.meshgrid([0, step, LEVEL], [0, step, LEVEL]))
-    nx, ny = (xg[:, None] + du).ravel(), (yg[:, None] + dv).ravel()
-    keys, inverse = np.unique(tile_key(nx, ny), return_inverse=True)
-    ki, kj = key_pair(keys)
-    ux, uy = ki.astype(float), kj.astype(float)
+    du, dv = (a.ravel() for a in np.meshgrid([0, 1, 2], [0, 1, 2]))  # in node steps
     cap = max(100.0 * radius, 50.0)
     if len(g) == 0:
         return np.full((len(xg), 9), cap)
-    d, _ = cKDTree(g[:, :2]).query(np.column_stack([ux, uy]), k=1, distance_upper_bound=cap)
-    return np.minimum(d, cap)[inverse.ravel()].reshape(len(xg), 9)
+    x0, y0 = int(xg.min()), int(yg.min())
+    ci, cj = (xg - x0) // step, (yg - y0) // step
+    touched = np.zeros((int(cj.max()) + 3, int(ci.max()) + 3), bool)
+    rows, cols = cj[:, None] + dv, ci[:, None] + du
+    touched[rows, cols] = True
+    nj, ni = np.nonzero(touched)
+    nodes = np.column_stack([x0 + ni * float(step), y0 + nj * float(step)])
+    d, _ = cKDTree(g[:, :2]).query(nodes, k=1, distance_upper_bound=cap)
+    distance = np.full(touched.shape, cap)
+    distance[nj, ni] = np.minimum(d, cap)
+    return distance[rows, cols]
