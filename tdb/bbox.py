@@ -1,4 +1,5 @@
-"""Boxes x0, y0, x1, y1 given by users: checked once, clipped to what a version covers."""
+"""Boxes x0, y0, x1, y1 given by users: checked once, clipped to what a version covers; and the
+extent of points, column by column."""
 
 from __future__ import annotations
 
@@ -54,7 +55,7 @@ def column_range(points: NDArray[Any]) -> tuple[NDArray[np.float64], NDArray[np.
     """The least and the greatest value of each column of ``points`` (n × k).
 
     Taken column by column: numpy reduces a tall array of a few columns along its first axis an
-    order of magnitude slower than each column alone (67 ms against 6 ms for 2.6 M points)."""
+    order of magnitude slower than each column alone."""
     a = np.asarray(points, dtype=float)
     if a.ndim != 2:
         raise InputError(f"points must be an n × k array, got shape {a.shape}")

@@ -42,8 +42,9 @@ def keep_freed_memory() -> bool:
 
     dask.distributed's nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_`` at 64 KiB, which
     also turns off glibc's own raising of its thresholds: every array over 128 KiB is then mapped
-    afresh from the system and returned when freed, and a block's numpy work ran 45 % slower on
-    such a worker than in a plain process. Set once per process, at its first block."""
+    afresh from the system and returned when freed, and a block's numpy work, which makes and
+    drops many such arrays, pays for fresh pages each time. Set once per process, at its first
+    block."""
     import ctypes
     import ctypes.util
 
