@@ -16,9 +16,7 @@ NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic
 TOLERANCE = 0.1  # m per m: what a neighbour carried along the surface may fall short by
 CHUNK = 200_000  # points per batch of plane fits (bounds the memory of the neighbourhoods)
 DEEP_SHARE = 0.2  # a tile's depth is what this share of its ground returns reach, not one return
-# tiles across the window whose median lift is a tile's layer: the least in which a band of two
-# lifted tiles (the edges of a step or of a narrow wall, either side) is a minority in every window
-LAYER_TILES = 5
+LAYER_TILES = 5  # the least window of a tile's layer: a narrow wall's two lifted edges are a minority
 
 
 def envelope_lift(
@@ -78,7 +76,7 @@ def tile_evidence(
     g = np.asarray(ground_xyz, float)
     lift = _tile_lift(g, xg, yg)
     depth = tile_depth(g, surface, xg, yg)
-    layer = tile_layer(lift, xg, yg, floor=noise_lift(spacing, noise))
+    layer = tile_layer(lift, xg, yg, floor=noise_lift(spacing, noise), window=layer_window(spacing))
     radius = SUPPORT_SPACINGS * spacing
     distance = _node_distance(g, xg, yg, radius)
     support = (distance <= radius).mean(axis=1)
@@ -86,18 +84,34 @@ def tile_evidence(
     return TileEvidence(xg, yg, *(a.astype(np.float32) for a in (lift, gap, depth, layer, support)))
 
 
+def layer_window(spacing: float) -> int:
+    """Tiles across the window whose median lift is a tile's layer, for pulses ``spacing`` m apart.
+
+    A step lifts the returns whose neighbourhoods reach across it: a band as wide as a
+    neighbourhood (:data:`NEIGHBOURS` returns, 2 √(k / π) spacings across) on either side of its
+    edge. The window is twice the band in tiles, and one, so that such a band is a minority of
+    every window; at least :data:`LAYER_TILES`, in which the two edges of a wall one tile wide are."""
+    band = 2 * np.sqrt(NEIGHBOURS / np.pi) * spacing
+    return max(LAYER_TILES, 2 * int(np.ceil(band / LEVEL)) + 1)
+
+
 def tile_layer(
-    lift: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64], *, floor: float = 0.0
+    lift: NDArray[np.float64],
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    *,
+    floor: float = 0.0,
+    window: int = 5,
 ) -> NDArray[np.float64]:
-    """Per 2 m tile (corners ``xg``, ``yg``), the median ``lift`` of the :data:`LAYER_TILES` ×
-    :data:`LAYER_TILES` tiles around it (a tile not given counts as 0), less the ``floor`` that
+    """Per 2 m tile (corners ``xg``, ``yg``), the median ``lift`` of the ``window`` × ``window``
+    tiles around it (:func:`layer_window`; a tile not given counts as 0), less the ``floor`` that
     noise alone makes (:func:`noise_lift`), never below 0.
 
     Where a filter took a layer of vegetation for the ground (the understorey under a closed
     canopy, through which a few returns reach the ground), every tile's highest ground return
     stands over the ground seen near it by about the layer's height, so the median over an area
     keeps it. A step, a bank or a wall lifts the tiles along its edges alone (a quadratic does not
-    follow a step): a band too narrow to be the median of any window."""
+    follow a step): a band too narrow to be the median of the window."""
     xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
     if len(xg) == 0:
         return np.zeros(0)
@@ -105,7 +119,7 @@ def tile_layer(
     raster = np.zeros(grid.size, np.float32)
     at = grid.cells_of_tiles(xg, yg)
     raster[at] = np.nan_to_num(lift, nan=0.0)
-    median = ndimage.median_filter(raster.reshape(grid.shape), size=LAYER_TILES, mode="constant")
+    median = ndimage.median_filter(raster.reshape(grid.shape), size=window, mode="constant")
     return np.maximum(median.ravel()[at].astype(float) - floor, 0.0)
 
 

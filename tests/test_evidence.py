@@ -10,7 +10,7 @@ from sqlalchemy import text
 
 import tdb
 from ingest.dtm import dense_model
-from ingest.evidence import envelope_lift, noise_lift, tile_depth, tile_evidence
+from ingest.evidence import envelope_lift, layer_window, noise_lift, tile_depth, tile_evidence
 from ingest.pipeline import ingest
 from queries.changes import detect, tile_lod
 from tdb.cloud import from_arrays
@@ -286,17 +286,26 @@ def test_an_understorey_taken_for_ground_is_a_layer_where_its_depth_misses_it():
     np.testing.assert_allclose(e.standing, np.maximum(e.depth, e.layer))
 
 
-def test_a_wall_lifts_its_edges_but_makes_no_layer():
+@pytest.mark.parametrize("density", [4.0, 0.5])
+def test_a_wall_lifts_its_edges_but_makes_no_layer(density):
     """A wall 2 m wide and 1.5 m high taken for ground: its edges' tiles are lifted (a quadratic does
-    not follow a step), a band the median over 5 × 5 tiles passes over."""
-    g = _ground(size=60, seed=3)
-    wall = np.abs(g[:, 0] - 31) < 1
+    not follow a step), a band the median over the layer's window passes over, at a dense survey's
+    5 × 5 tiles and at a sparse one's wider window (its neighbourhoods reach farther)."""
+    g = _ground(size=80, density=density, seed=3)
+    wall = np.abs(g[:, 0] - 41) < 1
     g[wall, 2] += 1.5
-    xg, yg = _tiles(60)
-    e = tile_evidence(g, xg, yg, spacing=0.5, surface=_surface(g))
-    near = (np.abs(xg + 1 - 31) < 4) & _inner(xg, yg, 6, 54)
+    xg, yg = _tiles(80)
+    # with the ground's noise (σ 0.02 m), as an ingest passes it: the floor it makes is taken off
+    e = tile_evidence(g, xg, yg, spacing=1 / np.sqrt(density), surface=_surface(g), noise=0.02)
+    near = (np.abs(xg + 1 - 41) < 4) & _inner(xg, yg, 12, 68)
     assert np.max(e.lift[near]) > 0.3
     assert np.max(e.layer[near]) < 0.05
+
+
+def test_the_layer_window_widens_with_the_spacing():
+    windows = [layer_window(s) for s in (0.2, 0.5, 0.9, 1.0, 1.5, 2.5)]
+    assert windows == sorted(windows) and all(w % 2 == 1 and w >= 5 for w in windows)
+    assert windows[0] == 5 and windows[-1] > 9
 
 
 @settings(max_examples=8, deadline=None)
