@@ -50,12 +50,14 @@ def find_buildings(
     near = ndimage.binary_dilation(regions > 0, structure=np.ones((3, 3)), iterations=3).ravel()[cell_of]
     tree = cKDTree(xyz[near, :2])
     label = np.where(roof, region, 0)[near]
+    # each region's roof returns, grouped once rather than found by a pass over all returns per region
+    roofs = np.flatnonzero(roof)
+    roofs = roofs[np.argsort(region[roofs], kind="stable")]
+    starts = np.searchsorted(region[roofs], np.arange(1, n + 2))
     out = []
     for k, sl in enumerate(ndimage.find_objects(regions), start=1):
-        if sl is None:
-            continue
-        mine = roof & (region == k)
-        if not mine.any():
+        mine = roofs[starts[k - 1] : starts[k]]
+        if sl is None or len(mine) == 0:
             continue
         shape = _footprint(tree, label, k, grid, sl, p)
         if shape is None:
