@@ -101,7 +101,7 @@ def tile_layer(
     yg: NDArray[np.int64],
     *,
     floor: float = 0.0,
-    window: int = 5,
+    window: int = LAYER_TILES,
 ) -> NDArray[np.float64]:
     """Per 2 m tile (corners ``xg``, ``yg``), the median ``lift`` of the ``window`` × ``window``
     tiles around it (:func:`layer_window`; a tile not given counts as 0), less the ``floor`` that

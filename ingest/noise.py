@@ -21,30 +21,38 @@ MIN_FLAT = 0.10  # m: below this a threshold would call noise a form
 NOISE_FACTOR = 5.0  # flat threshold = this × the measured ground noise
 
 
-def ground_noise(
-    ground_xyz: NDArray[np.float64], *, k: int = 10, sample: int = 20_000, seed: int = 0, quantile: float = 50.0
-) -> float:
+def ground_noise(ground_xyz: NDArray[np.float64], *, k: int = 10, sample: int = 20_000, seed: int = 0) -> float:
     """Robust σ (m) of ground heights about planes fitted to their ``k`` nearest neighbours.
 
     The smallest eigenvalue of a neighbourhood's covariance is the variance
     across its best plane; the median over a sample of about ``sample`` neighbourhoods ignores
     breaks of slope and leftover objects. Whether a point is sampled depends on its coordinates
     alone (and ``seed``), not on the order or the company it comes in.
-
-    ``quantile`` (percent) takes another than the median: a low one (:data:`QUIET`) is the
-    spread of the quietest neighbourhoods, bare ground's, where vegetation taken for ground
-    widens the median's.
     """
+    return ground_noises(ground_xyz, (50.0,), k=k, sample=sample, seed=seed)[0]
+
+
+def ground_noises(
+    ground_xyz: NDArray[np.float64],
+    quantiles: tuple[float, ...],
+    *,
+    k: int = 10,
+    sample: int = 20_000,
+    seed: int = 0,
+) -> tuple[float, ...]:
+    """The spread of :func:`ground_noise` at each of ``quantiles`` (percent) of the neighbourhoods,
+    from one sample of them: 50 is the ground noise; a low one (:data:`QUIET`) is the spread of the
+    quietest neighbourhoods, bare ground's, where vegetation taken for ground widens the median's."""
     xyz = np.asarray(ground_xyz, float)
     if len(xyz) <= k:
-        return 0.0
+        return tuple(0.0 for _ in quantiles)
     pick = _sample(xyz, sample, seed)
     _, nb = cKDTree(xyz[:, :2]).query(xyz[pick, :2], k=k)
     pts = xyz[nb]
     centred = pts - pts.mean(axis=1, keepdims=True)
     cov = np.einsum("nki,nkj->nij", centred, centred) / (k - 3)
-    smallest = np.linalg.eigvalsh(cov)[:, 0]
-    return float(np.sqrt(np.percentile(np.maximum(smallest, 0.0), quantile)))
+    smallest = np.maximum(np.linalg.eigvalsh(cov)[:, 0], 0.0)
+    return tuple(float(np.sqrt(np.percentile(smallest, q))) for q in quantiles)
 
 
 QUIET = 25.0  # percent: the quietest quarter of a survey's neighbourhoods is bare ground's

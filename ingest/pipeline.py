@@ -15,7 +15,7 @@ from ingest.evidence import tile_evidence
 from ingest.ground import classify_ground
 from ingest.ground.grids import quantised
 from ingest.ground.hills import point_spacing
-from ingest.noise import QUIET, fullest_square, ground_noise, pilot_threshold, square_counts
+from ingest.noise import QUIET, fullest_square, ground_noises, pilot_threshold, square_counts
 from ingest.objects import Objects, find_objects
 from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
@@ -109,7 +109,7 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
     report("dense model", 0, 1)
     gxyz = metric.xyz[ground]
     dtm = dense_model(gxyz, resolution=o.resolution, crs=metric.crs)
-    noise = ground_noise(gxyz)
+    noise, quiet = ground_noises(gxyz, (50.0, QUIET))
     threshold = o.flat_threshold
     if threshold is None:
         seen = metric.xyz[~excluded(metric.classification, o.exclude)]
@@ -118,9 +118,7 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
     model = build(dtm, flat_threshold=threshold, n=SUBGRID)
     finest = model.levels[min(model.levels)]
     spacing = quantised(point_spacing(metric.xyz[:, :2]))
-    evidence = tile_evidence(
-        gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm, noise=ground_noise(gxyz, quantile=QUIET)
-    )
+    evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm, noise=quiet)
     objects = (
         find_objects(metric, ground, dtm, progress=report, skip=excluded(metric.classification, o.exclude))
         if o.objects

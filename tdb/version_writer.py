@@ -119,18 +119,21 @@ class VersionWriter:
                     _execute_rows(cursor, str(stmt), cols)
                 else:
                     cursor.executemany(str(stmt), [dict(zip(names, r)) for r in zip(*cols)])
-                self.done += len(cols[0])
-                self.progress("database", self.done, max(self.rows or 0, self.done))
+                self._advance(len(cols[0]))
         finally:
             cursor.close()
+
+    def _advance(self, rows: int) -> None:
+        self.done += rows
+        self.progress("database", self.done, max(self.rows or 0, self.done))
 
     def _copy(self, table: Any, columns: dict[str, NDArray[Any]]) -> None:
         total = len(next(iter(columns.values()))) if columns else 0
         cursor = self.conn.connection.cursor()
         try:
-            for written in copy_rows(cursor, table, {"version": np.full(total, self.vid), **columns}):
-                self.done += written
-                self.progress("database", self.done, max(self.rows or 0, self.done))
+            columns = {"version": np.full(total, self.vid), **columns}
+            for written in copy_rows(cursor, table, columns, quote=self.conn.dialect.identifier_preparer):
+                self._advance(written)
         finally:
             cursor.close()
 
@@ -150,17 +153,18 @@ def _wire_type(column: Any) -> str:
     raise TypeError(f"no binary COPY for column {column.name} of type {column.type}")
 
 
-def copy_rows(cursor: Any, table: Any, columns: dict[str, NDArray[Any]]) -> Iterator[int]:
+def copy_rows(cursor: Any, table: Any, columns: dict[str, NDArray[Any]], *, quote: Any) -> Iterator[int]:
     """COPY the rows given column-wise into ``table`` on a psycopg ``cursor``, in PostgreSQL's binary
-    format; yields the rows sent after each batch of :data:`BATCH`."""
+    format, its names quoted by the dialect's identifier preparer ``quote``; yields the rows sent
+    after each batch of :data:`BATCH`."""
     names = list(columns)
     fields = [("count", ">i2")]
     for name in names:
         fields += [(f"{name}_size", ">i4"), (name, _wire_type(table.c[name]))]
     row = np.dtype(fields)
     total = len(columns[names[0]]) if names else 0
-    quoted = ", ".join(f'"{n}"' for n in names)
-    with cursor.copy(f'COPY "{table.name}" ({quoted}) FROM STDIN (FORMAT BINARY)') as copy:
+    quoted = ", ".join(quote.quote(n) for n in names)
+    with cursor.copy(f"COPY {quote.format_table(table)} ({quoted}) FROM STDIN (FORMAT BINARY)") as copy:
         copy.write(COPY_HEADER)
         for start in range(0, total, BATCH):
             end = min(start + BATCH, total)
