@@ -7,7 +7,7 @@ node lattice, holes bridged by straight lines, no triangulation) and compared at
 the tile's 3 × 3 nodes; LoD = 1.96 × √(σ₁² + σ₂²) from the two surveys' measured
 ground noise and reduction errors, at least 0.1 m. Changed tiles then grow over
 neighbours whose category stayed the same but whose surface moved as well.
-Changed tiles that touch form regions; each region is typed by the filters that
+Changed tiles that touch and moved the same way (rose or fell) form regions; each region is typed by the filters that
 match in one version and not the other.
 """
 
@@ -221,16 +221,12 @@ def _regions(
     level: int,
     min_tiles: int,
 ) -> list[tuple[NDArray[np.intp], float, bool, float]]:
-    """Regions of the moved tiles ``xg``, ``yg`` (8-neighbours on the tile lattice) whose mean
-    change passes their LoD (``lod`` per tile; a region's is its tiles' median): members, mean
-    height change, whether the region passes the size gate by itself (small ones count only
-    where a closed form came or went, see :func:`detect`), and the region's LoD."""
-    i = ((xg - xg.min()) // level).astype(np.intp)
-    j = ((yg - yg.min()) // level).astype(np.intp)
-    grid = np.zeros((j.max() + 1, i.max() + 1), bool)
-    grid[j, i] = True
-    labels, n = ndimage.label(grid, structure=np.ones((3, 3)))
-    tile_label = labels[j, i]
+    """Regions of the moved tiles ``xg``, ``yg`` (8-neighbours on the tile lattice that moved the
+    same way, :func:`_label_by_sign`) whose mean change passes their LoD (``lod`` per tile; a
+    region's is its tiles' median): members, mean height change, whether the region passes the
+    size gate by itself (small ones count only where a closed form came or went, see
+    :func:`detect`), and the region's LoD."""
+    tile_label, n = _label_by_sign(xg, yg, dz, lod, level)
     by_label = np.argsort(tile_label, kind="stable")
     bounds = np.searchsorted(tile_label[by_label], np.arange(1, n + 2))
     regions = []
@@ -249,6 +245,27 @@ def _regions(
         strong = len(members) >= MIN_STRONG_TILES and abs(mean_dz) >= STRONG * region_lod
         regions.append((members, mean_dz, len(members) >= min_tiles or strong, region_lod))
     return regions
+
+
+def _label_by_sign(
+    xg: NDArray[np.int64], yg: NDArray[np.int64], dz: NDArray[np.float64], lod: NDArray[np.float64], level: int
+) -> tuple[NDArray[np.intp], int]:
+    """Region label (1…n) of each tile: tiles that touch (8-neighbours) and moved the same way,
+    by the sign of the mean change of their nodes beyond the LoD. Cut beside fill is two changes."""
+    with np.errstate(invalid="ignore"):
+        beyond = np.abs(dz) > lod[:, None]
+    rising = np.where(beyond, dz, 0.0).sum(axis=1) >= 0
+    i = ((xg - xg.min()) // level).astype(np.intp)
+    j = ((yg - yg.min()) // level).astype(np.intp)
+    tile_label = np.zeros(len(xg), np.intp)
+    n = 0
+    for way in (rising, ~rising):
+        grid = np.zeros((j.max() + 1, i.max() + 1), bool)
+        grid[j[way], i[way]] = True
+        labels, count = ndimage.label(grid, structure=np.ones((3, 3)))
+        tile_label[way] = labels[j[way], i[way]] + n
+        n += count
+    return tile_label, n
 
 
 def _grow(

@@ -199,6 +199,37 @@ def test_a_raised_platform_is_found_whole_though_its_inner_tiles_keep_their_cate
     assert 0.8 < found[0]["properties"]["dz"] < 1.1
 
 
+def _cut_beside_fill(rng, *, worked: bool):
+    """The gentle slope; ``worked``: a 12 m × 24 m pit dug 1 m deep and its spoil heaped 1 m
+    high on the 12 m × 24 m beside it (sides 1:2), so that the two changes touch."""
+    cloud = _gentle_slope(rng, raised=False)
+    if not worked:
+        return cloud
+    x, y, z = cloud.xyz.T
+    dy = np.abs(y - 6_000_040)
+    cut = np.clip((np.minimum(np.minimum(x - 500_028, 500_040 - x), 12 - dy)) / 2 + 0.5, 0, 1)
+    fill = np.clip((np.minimum(np.minimum(x - 500_040, 500_052 - x), 12 - dy)) / 2 + 0.5, 0, 1)
+    return replace(cloud, xyz=np.column_stack([x, y, z - cut + fill]))
+
+
+def test_a_cut_beside_its_fill_is_two_changes(tmp_path):
+    # Together they move the ground by nothing on the mean: only apart are they coherent.
+    rng = np.random.default_rng(6)
+    db = tdb.open(tmp_path / "p.tdb", create=True)
+    ingest(_cut_beside_fill(rng, worked=False), db, version="a")
+    ingest(_cut_beside_fill(rng, worked=True), db, version="b")
+    found = sorted(detect(db, "a", "b"), key=lambda f: f["properties"]["dz"])
+    assert [np.sign(f["properties"]["dz"]) for f in found] == [-1, 1]
+    for f, box in zip(
+        found,
+        (shapely.box(500_028, 6_000_028, 500_040, 6_000_052), shapely.box(500_040, 6_000_028, 500_052, 6_000_052)),
+    ):
+        region = shapely.geometry.shape(f["geometry"])
+        assert region.intersection(box).area > 0.8 * box.area
+        assert region.difference(box.buffer(3)).area == 0
+        assert 0.7 < abs(f["properties"]["dz"]) < 1.1
+
+
 @given(
     mound=st.floats(4, 400),
     ridge=st.floats(4, 400),
