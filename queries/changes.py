@@ -7,8 +7,9 @@ node lattice, holes bridged by straight lines, no triangulation) and compared at
 the tile's 3 × 3 nodes; LoD = 1.96 × √(σ₁² + σ₂²) from the two surveys' measured
 ground noise and reduction errors, at least 0.1 m. Changed tiles then grow over
 neighbours whose category stayed the same but whose surface moved as well.
-Changed tiles that touch and moved the same way (rose or fell) form regions; each region is typed by the filters that
-match in one version and not the other.
+Changed tiles that touch and moved the same way (rose or fell) form regions;
+each region is typed by the filters that match in one version and not the
+other.
 """
 
 from __future__ import annotations
