@@ -366,8 +366,11 @@ def detect(
     from_strong = np.isin(grown, np.concatenate(strong)) if strong else np.zeros(len(grown), bool)
     lods = tiles.lod[grown]
     xg, yg = xg[grown], yg[grown]
+    # A grown region is sure where it holds a strong seed, or where it is large and moved as a
+    # whole by a strong change: a form removed from a steep slope changes few categories, so its
+    # seeds are weak, but its grown surface still says plainly that it moved.
     regions = [
-        (members, mean_dz, big and bool(from_strong[members].any()), at)
+        (members, mean_dz, big and (bool(from_strong[members].any()) or abs(mean_dz) >= STRONG * at), at)
         for members, mean_dz, big, at in _regions(xg, yg, dz, lods, level, min_tiles)
         if big or abs(mean_dz) >= CLOSED_DZ * at
     ]
