@@ -36,7 +36,7 @@ from benchmarks.changes_synth import km2_pair
 from benchmarks.common import RESULTS, peak_rss_mib, save
 from queries.changes import detect
 from queries.match import find
-from tdb import blocks, schema
+from tdb import point_pages, schema
 from tdb.database import Database, VersionInfo
 from tdb.evidence import TileEvidence
 from tdb.objects import Building, Tree
@@ -69,7 +69,7 @@ def read_part(db: Database, version: str) -> Part:
             )
         ]
     inf = float("inf")
-    points = blocks.points_from_blocks(pages, (-inf, -inf, inf, inf), mask=0xFF)
+    points = point_pages.points_from_blocks(pages, (-inf, -inf, inf, inf), mask=0xFF)
     return Part(levels, points, db.evidence(version), db.trees(version), db.buildings(version))
 
 

@@ -1,4 +1,4 @@
--- tdb schema version 5 (postgresql); generated from tdb/schema.py
+-- tdb schema version 6 (postgresql); generated from tdb/schema.py
 
 CREATE TABLE categories (
 	code SMALLINT NOT NULL, 

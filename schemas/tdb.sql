@@ -1,4 +1,4 @@
--- tdb schema version 5 (sqlite); generated from tdb/schema.py
+-- tdb schema version 6 (sqlite); generated from tdb/schema.py
 
 CREATE TABLE categories (
 	code SMALLINT NOT NULL, 

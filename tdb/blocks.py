@@ -4,8 +4,8 @@ The row tables (``tdb``, ``c2`` … ``c16``) answer SQL; an area of interest of 
 square kilometre is 250 000 tiles and as many points at the 2 m level, and
 stepping through that many rows costs a second in Python. The same data cut into
 blocks (a uint8 raster of codes per block of 128 × 128 tiles; the points of each
-256 m block as packed arrays) is read as a few dozen BLOBs and decoded by numpy.
-Writes keep both in the same transaction.
+256 m block as packed arrays, :mod:`tdb.point_pages`) is read as a few dozen BLOBs
+and decoded by numpy. Writes keep both in the same transaction.
 """
 
 from __future__ import annotations
@@ -19,12 +19,11 @@ from numpy.typing import NDArray
 from tdb.categories import NO_DATA
 
 TILES_PER_BLOCK = 128
-POINT_BLOCK = 256.0  # m
 ABSENT = 254  # no tile stored there; not a category code, and unlike NO_DATA (a stored tile without data)
 assert ABSENT != NO_DATA
 
 
-def _group_starts(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.intp]:
+def group_starts(a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.intp]:
     """Where each run of equal (a, b) starts, for arrays sorted by (a, b)."""
     if len(a) == 0:
         return np.empty(0, np.intp)
@@ -41,7 +40,7 @@ def _raster_blocks(
     col = (xg - bx * side) // level
     row = (yg - by * side) // level
     order = np.lexsort((by, bx))
-    starts = _group_starts(bx[order], by[order])
+    starts = group_starts(bx[order], by[order])
     for s, e in zip(starts, np.r_[starts[1:], len(order)]):
         sel = order[s:e]
         raster = np.full((len(layers), TILES_PER_BLOCK, TILES_PER_BLOCK), fill, dtype)
@@ -101,51 +100,6 @@ def tiles_from_blocks(
     return xg, yg, code
 
 
-def point_blocks(
-    x: NDArray[np.float64], y: NDArray[np.float64], z: NDArray[np.float64], n: NDArray[np.uint8]
-) -> Iterator[tuple[int, int, bytes]]:
-    """(bx, by, blob) per 256 m block: x, y, z as float64 then n as uint8, packed."""
-    bx = np.floor(x / POINT_BLOCK).astype(np.int64)
-    by = np.floor(y / POINT_BLOCK).astype(np.int64)
-    order = np.lexsort((by, bx))
-    bxs, bys = bx[order], by[order]
-    starts = _group_starts(bxs, bys)
-    for s, e in zip(starts, np.r_[starts[1:], len(order)]):
-        sel = order[s:e]
-        blob = (
-            b"".join(
-                [x[sel].astype("<f8").tobytes(), y[sel].astype("<f8").tobytes(), z[sel].astype("<f8").tobytes()]
-            )
-            + n[sel].astype(np.uint8).tobytes()
-        )
-        yield int(bxs[s]), int(bys[s]), blob
-
-
-def points_from_blocks(
-    blocks: list[tuple[int, int, bytes]], bbox: tuple[float, float, float, float], *, mask: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
-    """(x, y, z, n) of the points of ``blocks`` (bx, by, page) inside ``bbox`` whose level mask
-    has a bit of ``mask``."""
-    x0, y0, x1, y1 = bbox
-    parts = []
-    for bx, by, blob in blocks:
-        x, y, z, n = _decoded(blob)
-        keep = (n & mask) > 0
-        # only where the box's edge cuts a block need its points be placed (a block holds
-        # bx * side <= x < (bx + 1) * side, exactly: the side is a power of two)
-        if not (x0 <= bx * POINT_BLOCK and (bx + 1) * POINT_BLOCK <= x1):
-            keep &= (x >= x0) & (x <= x1)
-        if not (y0 <= by * POINT_BLOCK and (by + 1) * POINT_BLOCK <= y1):
-            keep &= (y >= y0) & (y <= y1)
-        # a block wholly inside whose points all belong to the level is read as it is stored:
-        # the one copy is the concatenation below
-        parts.append((x, y, z, n) if keep.all() else (x[keep], y[keep], z[keep], n[keep]))
-    if not parts:
-        return np.empty(0), np.empty(0), np.empty(0), np.empty(0, np.uint8)
-    x, y, z, n = (np.concatenate(p) for p in zip(*parts))
-    return x, y, z, n
-
-
 def evidence_blocks(
     xg: NDArray[np.int64], yg: NDArray[np.int64], fields: list[NDArray[np.floating]]
 ) -> Iterator[tuple[int, int, bytes]]:
@@ -197,17 +151,3 @@ def merge_evidence_pages(old: bytes, new: bytes, *, fields: int) -> bytes:
     return merge_raster_pages(
         _with_fields(old, fields), _with_fields(new, fields), dtype="<f2", layers=fields, fill=np.nan
     )
-
-
-def merge_point_pages(old: bytes, new: bytes) -> bytes:
-    """A point page (:func:`point_blocks`) holding the points of both parts."""
-    x, y, z, n = (np.concatenate(p) for p in zip(*(_decoded(b) for b in (old, new))))
-    ((_, _, blob),) = point_blocks(x, y, z, n)
-    return blob
-
-
-def _decoded(blob: bytes) -> tuple[NDArray[Any], ...]:
-    """x, y, z, n of a point page."""
-    m = len(blob) // 25
-    f = np.frombuffer(blob, "<f8", count=3 * m)
-    return f[:m], f[m : 2 * m], f[2 * m :], np.frombuffer(blob, np.uint8, offset=24 * m)

@@ -25,7 +25,7 @@ from sqlalchemy import Connection, Engine, create_engine, event, func, select
 from sqlalchemy.exc import ArgumentError, IntegrityError, NoSuchModuleError, OperationalError
 from sqlalchemy.exc import DatabaseError as SADatabaseError
 
-from tdb import blocks, schema
+from tdb import blocks, point_pages, schema
 from tdb.bbox import Box, check_bbox, clip_bbox
 from tdb.categories import all_categories
 from tdb.errors import DatabaseError, InputError, Remedy, TdbIOError, VersionExistsError, VersionNotFoundError
@@ -34,6 +34,7 @@ from tdb.object_store import read_buildings, read_trees, rekey_objects
 from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
 from tdb.stats import VersionStats
+from tdb.threads import keep_freed_memory
 from tdb.version_writer import VersionWriter, write_point_pages, write_tile_pages
 
 SQLITE_MAGIC = b"SQLite format 3\x00"
@@ -145,6 +146,8 @@ def open(path: str | os.PathLike[str], *, create: bool = False, readonly: bool =
     event.listen(engine, "handle_error", _damaged(shown))
     db = Database(engine, shown, readonly=readonly)
     db._prepare(create=create)
+    # an area read makes and drops arrays of megabytes; without this each is mapped afresh
+    keep_freed_memory()
     return db
 
 
@@ -255,7 +258,7 @@ class Database:
         if found < schema.SCHEMA_VERSION:
             if self.readonly:  # the tables it lacks read as empty, its objects by their old key
                 self._tables = names
-                self._keyed_objects = False
+                self._keyed_objects = found >= 5
             else:
                 self._upgrade(found)
         if not self.readonly:
@@ -532,8 +535,8 @@ class Database:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
         """(x, y, z, n) of the kept points of ``version`` belonging to ``level`` inside ``bbox``,
         ordered by (x, y) unless ``ordered`` is false (then block by block: sorting a square
-        kilometre's points costs more than reading them). Read from the block pages; the
-        ``tdb`` rows hold the same points."""
+        kilometre's points costs more than reading them). Read from the block pages, which hold
+        the ``tdb`` rows' points to within 31 µm (:mod:`tdb.point_pages`)."""
         x, y, z, n = self._block_points(self.version(version).id, _level(level), bbox)
         if not ordered:
             return x, y, z, n
@@ -592,8 +595,8 @@ class Database:
             y,
             z,
             n,
-            self.trees(name, bbox=bbox),
-            self.buildings(name, bbox=bbox),
+            self._trees(vid, bbox),
+            self._buildings(vid, bbox),
         )
 
     def _block_tiles(
@@ -611,11 +614,11 @@ class Database:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.uint8]]:
         pb = schema.point_blocks
         q = select(pb.c.bx, pb.c.by, pb.c.data).where(pb.c.version == vid)
-        q = _in_blocks(q, pb, bbox, blocks.POINT_BLOCK)
+        q = _in_blocks(q, pb, bbox, point_pages.POINT_BLOCK)
         inf = float("inf")
         mask = 1 << schema_levels().index(level)
         rows = [tuple(r) for r in self._fetch(q)]
-        return blocks.points_from_blocks(rows, bbox or (-inf, -inf, inf, inf), mask=mask)
+        return point_pages.points_from_blocks(rows, bbox or (-inf, -inf, inf, inf), mask=mask)
 
     def evidence(self, version: str, *, bbox: tuple[float, float, float, float] | None = None) -> TileEvidence:
         """The ground evidence of the 2 m tiles of ``version`` overlapping ``bbox``
@@ -637,7 +640,9 @@ class Database:
     def trees(self, version: str, *, bbox: tuple[float, float, float, float] | None = None) -> list[Tree]:
         """The trees of ``version`` whose crown meets ``bbox`` (all where None), tallest first;
         none for a version stored before trees were kept."""
-        vid = self.version(version).id
+        return self._trees(self.version(version).id, bbox)
+
+    def _trees(self, vid: int, bbox: tuple[float, float, float, float] | None) -> list[Tree]:
         if schema.trees.name not in self._tables:
             return []
         with self.engine.connect() as conn:
@@ -645,7 +650,9 @@ class Database:
 
     def buildings(self, version: str, *, bbox: tuple[float, float, float, float] | None = None) -> list[Building]:
         """The buildings of ``version`` whose footprint meets ``bbox`` (all where None), largest first."""
-        vid = self.version(version).id
+        return self._buildings(self.version(version).id, bbox)
+
+    def _buildings(self, vid: int, bbox: tuple[float, float, float, float] | None) -> list[Building]:
         if schema.buildings.name not in self._tables:
             return []
         with self.engine.connect() as conn:

@@ -37,14 +37,17 @@ TRIM_THRESHOLD = 64 * 2**20  # bytes of freed memory kept before any is returned
 
 @cache
 def keep_freed_memory() -> bool:
-    """Let this process's allocator (glibc's) keep freed memory for the next arrays, as it does by
-    default; whether it was set (False where the C library is not glibc).
+    """Let this process's allocator (glibc's) keep freed memory for the next arrays; whether it
+    was set (False where the C library is not glibc).
 
-    dask.distributed's nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_`` at 64 KiB, which
-    also turns off glibc's own raising of its thresholds: every array over 128 KiB is then mapped
-    afresh from the system and returned when freed, and a block's numpy work, which makes and
-    drops many such arrays, pays for fresh pages each time. Set once per process, at its first
-    block."""
+    glibc maps every allocation over its threshold (128 KiB at first) afresh from the system and
+    returns it when freed. Its own raising of that threshold stops short of tdb's work: an area
+    read of a square kilometre makes and drops a dozen arrays of megabytes, and a block of an
+    ingest many more, and each fresh page costs a fault. dask.distributed's nanny makes it worse:
+    it starts workers with ``MALLOC_TRIM_THRESHOLD_`` at 64 KiB, which turns the raising off.
+    Arrays up to 32 MiB are therefore taken from the heap, and up to 64 MiB of freed memory is
+    kept for the next ones. Set once per process, when a database is opened and at a worker's
+    first block."""
     import ctypes
     import ctypes.util
 

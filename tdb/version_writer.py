@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 from sqlalchemy import BigInteger, Connection, Float, Integer, SmallInteger, bindparam, literal_column, select
 
-from tdb import blocks, schema
+from tdb import blocks, point_pages, schema
 from tdb.errors import DatabaseError
 from tdb.evidence import TileEvidence
 from tdb.object_store import write_objects
@@ -71,7 +71,7 @@ class VersionWriter:
                 schema.evidence_blocks,
                 pages,
                 {"version": self.vid},
-                merge=lambda old, new: blocks.merge_evidence_pages(old, new, fields=fields),
+                merge=lambda _, old, new: blocks.merge_evidence_pages(old, new, fields=fields),
             )
         if objects is not None:
             write_objects(self.conn, self.vid, *objects)
@@ -185,7 +185,7 @@ def write_tile_pages(conn: Connection, vid: int, level: int, xg: Any, yg: Any, c
         schema.tile_blocks,
         blocks.tile_blocks(xg, yg, code, level=level),
         {"version": vid, "level": level},
-        merge=blocks.merge_tile_pages,
+        merge=lambda _, old, new: blocks.merge_tile_pages(old, new),
         blob="codes",
     )
 
@@ -195,9 +195,9 @@ def write_point_pages(conn: Connection, vid: int, x: Any, y: Any, z: Any, n: Any
     _merge_pages(
         conn,
         schema.point_blocks,
-        blocks.point_blocks(x, y, z, n),
+        point_pages.point_blocks(x, y, z, n),
         {"version": vid},
-        merge=blocks.merge_point_pages,
+        merge=point_pages.merge_point_pages,
     )
 
 
@@ -207,11 +207,12 @@ def _merge_pages(
     pages: Iterator[tuple[int, int, bytes]],
     key: dict[str, int],
     *,
-    merge: Callable[[bytes, bytes], bytes],
+    merge: Callable[[tuple[int, int], bytes, bytes], bytes],
     blob: str = "data",
 ) -> None:
     """Insert block pages (bx, by, blob) with the columns ``key`` into ``table``; a page an
-    earlier part wrote is read (one query for the part's range) and merged with the new one."""
+    earlier part wrote is read (one query for the part's range) and merged with the new one by
+    ``merge(block, old, new)``."""
     new = list(pages)
     if not new:
         return
@@ -231,7 +232,7 @@ def _merge_pages(
             conn.execute(
                 table.update()
                 .where(*cond, table.c.bx == bx, table.c.by == by)
-                .values({blob: merge(old[(bx, by)], data)})
+                .values({blob: merge((bx, by), old[(bx, by)], data)})
             )
 
 

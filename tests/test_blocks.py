@@ -9,7 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tdb
-from tdb.blocks import points_from_blocks, tile_blocks, tiles_from_blocks
+from tdb.blocks import tile_blocks, tiles_from_blocks
+from tdb.point_pages import point_blocks, points_from_blocks
 
 
 @settings(max_examples=30, deadline=None)
@@ -40,8 +41,6 @@ def test_tile_blocks_round_trip_any_bbox(seed, level, n):
 def test_point_blocks_filter_by_bbox_and_level(x0, y0, w, h, mask):
     """Boxes from within one block to several, with edges on block edges and on points (half
     metres: the points lie on a 0.5 m lattice, block edges included)."""
-    from tdb.blocks import point_blocks
-
     rng = np.random.default_rng(5)
     x = np.round(rng.uniform(-600, 900, 6000) * 2) / 2
     y = np.round(rng.uniform(-300, 1100, 6000) * 2) / 2
@@ -50,17 +49,61 @@ def test_point_blocks_filter_by_bbox_and_level(x0, y0, w, h, mask):
     bbox = (x0 / 2, y0 / 2, (x0 + w) / 2, (y0 + h) / 2) if w < 400 else (x0, y0, x0 + w, y0 + h)
     got = points_from_blocks(list(point_blocks(x, y, z, n)), bbox, mask=mask)
     want = (x >= bbox[0]) & (x <= bbox[2]) & (y >= bbox[1]) & (y <= bbox[3]) & ((n & mask) > 0)
-    assert sorted(zip(got[0], got[1], got[2])) == sorted(zip(x[want], y[want], z[want]))
+    g, w = np.lexsort((got[2], got[1], got[0])), np.lexsort((z[want], y[want], x[want]))
+    np.testing.assert_array_equal(got[0][g], x[want][w])  # half metres: exact as offsets
+    np.testing.assert_array_equal(got[1][g], y[want][w])
+    np.testing.assert_allclose(got[2][g], z[want][w], rtol=0, atol=1e-6)
 
 
 def test_whole_blocks_inside_a_box_come_whole():
-    from tdb.blocks import point_blocks
-
     x = np.array([0.0, 255.99, 256.0, 511.5, 512.0, -0.5])
     y = np.array([0.0, 10.0, 255.99, 256.0, 100.0, 3.0])
     n = np.full(6, 15, np.uint8)
     got = points_from_blocks(list(point_blocks(x, y, x * 0, n)), (0.0, 0.0, 512.0, 512.0), mask=1)
-    assert sorted(got[0].tolist()) == [0.0, 255.99, 256.0, 511.5, 512.0]
+    np.testing.assert_allclose(np.sort(got[0]), [0.0, 255.99, 256.0, 511.5, 512.0], rtol=0, atol=2.0**-15)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    east=st.floats(-1e6, 1e7),
+    north=st.floats(-1e6, 1e7),
+    low=st.floats(-500, 8000),
+    relief=st.floats(0, 2000),
+)
+def test_point_pages_keep_coordinates_to_their_stated_precision(seed, east, north, low, relief):
+    """Offsets in float32 from the block's corner and the page's lowest point: within 2^-15 m
+    horizontally and 2^-24 of the page's height range vertically, wherever the survey lies."""
+    rng = np.random.default_rng(seed)
+    x = east + rng.uniform(0, 700, 500)
+    y = north + rng.uniform(0, 700, 500)
+    z = low + rng.uniform(0, relief, 500)
+    n = rng.integers(1, 16, 500).astype(np.uint8)
+    inf = float("inf")
+    got = points_from_blocks(list(point_blocks(x, y, z, n)), (-inf, -inf, inf, inf), mask=15)
+    g, w = np.lexsort((got[1], got[0])), np.lexsort((y, x))
+    assert np.abs(got[0][g] - x[w]).max() <= 2.0**-15
+    assert np.abs(got[1][g] - y[w]).max() <= 2.0**-15
+    assert np.abs(got[2][g] - z[w]).max() <= max(relief, 1.0) * 2.0**-23
+    np.testing.assert_array_equal(got[3][g], n[w])
+
+
+def _old_page(x, y, z, n):
+    """A page as schemas before 6 wrote it: absolute float64 columns."""
+    return b"".join(a.astype("<f8").tobytes() for a in (x, y, z)) + n.astype(np.uint8).tobytes()
+
+
+def test_pages_of_the_old_layout_are_read_and_merged():
+    from tdb.point_pages import merge_point_pages
+
+    x, y = np.array([300.25, 400.125, 511.0]), np.array([10.5, 20.0, 255.5])
+    z, n = np.array([101.1, 99.7, 100.3]), np.array([1, 3, 15], np.uint8)
+    old = _old_page(x, y, z, n)
+    got = points_from_blocks([(1, 0, old)], (0.0, 0.0, 1024.0, 1024.0), mask=1)
+    np.testing.assert_array_equal(got[2], z)  # read as written, to the bit
+    ((_, _, new),) = point_blocks(x + 0.5, y, z + 1.0, n)
+    merged = points_from_blocks([(1, 0, merge_point_pages((1, 0), old, new))], (0.0, 0.0, 1024.0, 1024.0), mask=2)
+    np.testing.assert_allclose(np.sort(merged[0]), [400.125, 400.625, 511.0, 511.5], atol=2.0**-15)
 
 
 def _write(db):
@@ -92,9 +135,11 @@ def test_aoi_matches_row_tables(tmp_path):
     ).fetchall()
     con.close()
     assert len(rows) > 0
-    assert sorted(zip(area.x.tolist(), area.y.tolist(), area.z.tolist())) == sorted(rows)
-    x, y, z, _ = db.points("v", level=4, bbox=bbox)
-    assert sorted(zip(x.tolist(), y.tolist(), z.tolist())) == sorted(rows)
+    # the pages hold the rows' points to their precision (tdb.point_pages)
+    want = np.array(sorted(rows))
+    for x, y, z in ((area.x, area.y, area.z), db.points("v", level=4, bbox=bbox)[:3]):
+        got = np.array(sorted(zip(x.tolist(), y.tolist(), z.tolist())))
+        np.testing.assert_allclose(got, want, rtol=0, atol=2.0**-15)
 
 
 def test_schema_1_file_is_upgraded_with_blocks(tmp_path):
@@ -117,3 +162,37 @@ def test_schema_1_file_is_upgraded_with_blocks(tmp_path):
         zip(after.xg.tolist(), after.yg.tolist(), after.code.tolist())
     )
     np.testing.assert_array_equal(np.sort(before.z), np.sort(after.z))
+
+
+def test_a_schema_5_file_with_float64_pages_reads_the_same_read_only_and_upgraded(tmp_path):
+    from tdb.point_pages import decoded
+
+    path = tmp_path / "old.tdb"
+    db = tdb.open(path, create=True)
+    _write(db)
+    bbox = (500_000.0, 5_000_000.0, 500_060.0, 5_000_060.0)
+    before = db.points("v", level=2, bbox=bbox)
+    db.close()
+    con = sqlite3.connect(path)
+    for bx, by, data in con.execute("SELECT bx, by, data FROM point_blocks").fetchall():
+        page = decoded(bx, by, data)
+        con.execute(
+            "UPDATE point_blocks SET data = ? WHERE bx = ? AND by = ?",
+            (_old_page(*page.absolute(), page.n), bx, by),
+        )
+    con.execute("UPDATE meta SET value = '5' WHERE key = 'schema_version'")
+    con.commit()
+    con.close()
+    with tdb.open(path, readonly=True) as old:
+        assert old.schema_version() == 5
+        for got, want in zip(old.points("v", level=2, bbox=bbox), before):
+            np.testing.assert_array_equal(got, want)
+    with tdb.open(path) as upgraded:
+        assert upgraded.schema_version() == tdb.schema.SCHEMA_VERSION
+        levels = {lv: upgraded.tiles("v", level=lv, ordered=False) for lv in (2, 4, 8, 16)}
+        x, y, z, n = upgraded.points("v", level=16, bbox=None)
+        upgraded.write_version("w", levels=levels, points=(x + 3.0, y, z, n))
+        for got, want in zip(upgraded.points("v", level=2, bbox=bbox), before):
+            np.testing.assert_array_equal(got, want)
+        w = upgraded.points("w", level=16)
+        np.testing.assert_allclose(np.sort(w[0]), np.sort(x + 3.0), rtol=0, atol=2.0**-15)
