@@ -1,11 +1,12 @@
 """Point pages: the kept points of a version, one BLOB per 256 m block.
 
-A page holds a block's points as four packed columns. Since schema 6 they are float32 offsets
-from the block's south-west corner (x, y) and from the page's lowest point (z), after a
-16-byte header (a tag, then that lowest z as float64): 13 bytes a point where absolute float64
-took 25, which halves what an area read fetches and decodes. The offsets are exact to
-2⁻¹⁵ m (31 µm) horizontally, within a 256 m block, and to 2⁻²⁴ of the page's height range
-vertically (60 µm over a 1,000 m range): finer than any survey's stored scale.
+A page holds a block's points as four packed columns. Since schema 6 they follow an 8-byte tag:
+x and y as float32 offsets from the block's south-west corner, z as an int32 count of 2⁻¹⁴ m,
+and the level mask n as uint8: 13 bytes a point where absolute float64 took 25, which halves
+what an area read fetches and decodes. A point is stored to within 8 µm horizontally (half the
+float32 spacing below 256 m) and 31 µm vertically, finer than any survey's stored scale, and
+as a function of the point alone: a page merged from parts holds exactly what one written whole
+holds.
 
 Pages written before (absolute float64 x, y, z, then uint8 n) are still read: no such page
 starts with the tag, whose first eight bytes read as a float64 x near 10⁻²⁹⁶ m.
@@ -21,34 +22,49 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tdb.blocks import group_starts
+from tdb.errors import InputError
 
 POINT_BLOCK = 256.0  # m: a power of two, so a block holds bx * side <= x < (bx + 1) * side exactly
 TAG = b"\x89tdbp\x01\x02\x02"  # the high byte 0x02 makes it a float64 of ~1e-296, no coordinate
-HEADER = len(TAG) + 8  # the tag, then the page's lowest z (float64)
+Z_UNIT = 2.0**-14  # m: heights as whole counts of it, within ±131 km
 OLD_POINT_BYTES = 25  # x, y, z float64 and n uint8
-POINT_BYTES = 13  # x, y, z float32 offsets and n uint8
+POINT_BYTES = 13  # x, y float32 offsets, z int32 and n uint8
 
 
 @dataclass(frozen=True)
 class Page:
-    """A decoded page: x, y, z as stored (offsets from ``origin``) and the level masks ``n``."""
+    """A decoded page: x, y as stored (offsets from ``origin``), z as stored (in ``z_unit``) and
+    the level masks ``n``."""
 
     x: NDArray[Any]
     y: NDArray[Any]
     z: NDArray[Any]
     n: NDArray[np.uint8]
-    origin: tuple[float, float, float]
+    origin: tuple[float, float]
+    z_unit: float
 
     def absolute(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        ox, oy, oz = self.origin
-        return self.x.astype(np.float64) + ox, self.y.astype(np.float64) + oy, self.z.astype(np.float64) + oz
+        ox, oy = self.origin
+        return (
+            self.x.astype(np.float64) + ox,
+            self.y.astype(np.float64) + oy,
+            self.z.astype(np.float64) * self.z_unit,
+        )
 
 
 def point_blocks(
     x: NDArray[np.float64], y: NDArray[np.float64], z: NDArray[np.float64], n: NDArray[np.uint8]
 ) -> Iterator[tuple[int, int, bytes]]:
-    """(bx, by, page) per 256 m block that holds points: the header, then x, y, z offsets as
-    float32 and n as uint8, packed."""
+    """(bx, by, page) per 256 m block that holds points: the tag, then x, y offsets as float32,
+    z in counts of ``Z_UNIT`` as int32 and n as uint8, packed.
+
+    Raises
+    ------
+    InputError
+        If a height lies beyond ±131 km (not a height in metres).
+    """
+    if len(z) and not np.abs(z).max() < 2**31 * Z_UNIT:
+        raise InputError(f"heights up to {np.abs(z).max():.6g} m: not heights in metres")
     bx = np.floor(x / POINT_BLOCK).astype(np.int64)
     by = np.floor(y / POINT_BLOCK).astype(np.int64)
     order = np.lexsort((by, bx))
@@ -57,24 +73,26 @@ def point_blocks(
     for s, e in zip(starts, np.r_[starts[1:], len(order)]):
         sel = order[s:e]
         ox, oy = float(bxs[s]) * POINT_BLOCK, float(bys[s]) * POINT_BLOCK
-        zs = z[sel]
-        oz = float(zs.min())
-        columns = [(x[sel] - ox).astype("<f4"), (y[sel] - oy).astype("<f4"), (zs - oz).astype("<f4")]
-        blob = b"".join([TAG, np.float64(oz).astype("<f8").tobytes(), *(c.tobytes() for c in columns)])
-        yield int(bxs[s]), int(bys[s]), blob + n[sel].astype(np.uint8).tobytes()
+        columns = [
+            (x[sel] - ox).astype("<f4"),
+            (y[sel] - oy).astype("<f4"),
+            np.rint(z[sel] / Z_UNIT).astype("<i4"),
+            n[sel].astype(np.uint8),
+        ]
+        yield int(bxs[s]), int(bys[s]), b"".join([TAG, *(c.tobytes() for c in columns)])
 
 
 def decoded(bx: int, by: int, blob: bytes) -> Page:
     """The columns of a page, of either layout, without copying them."""
     if blob[: len(TAG)] == TAG:
-        m = (len(blob) - HEADER) // POINT_BYTES
-        oz = float(np.frombuffer(blob, "<f8", count=1, offset=len(TAG))[0])
-        f = np.frombuffer(blob, "<f4", count=3 * m, offset=HEADER)
-        n = np.frombuffer(blob, np.uint8, offset=HEADER + 12 * m)
-        return Page(f[:m], f[m : 2 * m], f[2 * m :], n, (bx * POINT_BLOCK, by * POINT_BLOCK, oz))
+        m = (len(blob) - len(TAG)) // POINT_BYTES
+        xy = np.frombuffer(blob, "<f4", count=2 * m, offset=len(TAG))
+        z = np.frombuffer(blob, "<i4", count=m, offset=len(TAG) + 8 * m)
+        n = np.frombuffer(blob, np.uint8, offset=len(TAG) + 12 * m)
+        return Page(xy[:m], xy[m:], z, n, (bx * POINT_BLOCK, by * POINT_BLOCK), Z_UNIT)
     m = len(blob) // OLD_POINT_BYTES
     f = np.frombuffer(blob, "<f8", count=3 * m)
-    return Page(f[:m], f[m : 2 * m], f[2 * m :], np.frombuffer(blob, np.uint8, offset=24 * m), (0.0, 0.0, 0.0))
+    return Page(f[:m], f[m : 2 * m], f[2 * m :], np.frombuffer(blob, np.uint8, offset=24 * m), (0.0, 0.0), 1.0)
 
 
 def points_from_blocks(
@@ -90,7 +108,7 @@ def points_from_blocks(
     picked: list[tuple[Page, NDArray[np.intp] | None]] = []
     for bx, by, blob in blocks:
         page = decoded(bx, by, blob)
-        ox, oy, _ = page.origin
+        ox, oy = page.origin
         keep = (page.n & mask) > 0
         # only where the box's edge cuts a block need its points be placed; the bounds are numpy
         # float64 scalars so that float32 offsets are compared in float64, as they are returned
@@ -105,11 +123,15 @@ def points_from_blocks(
     start = 0
     for page, pick in picked:
         stop = start + (len(page.n) if pick is None else len(pick))
-        for column, stored, offset in zip(out, (page.x, page.y, page.z), page.origin):
+        for column, stored, offset in zip(out[:2], (page.x, page.y), page.origin):
             part = column[start:stop]
             part[:] = stored if pick is None else stored[pick]
             if offset:
                 part += offset
+        part = out[2][start:stop]
+        part[:] = page.z if pick is None else page.z[pick]
+        if page.z_unit != 1.0:
+            part *= page.z_unit
         n_out[start:stop] = page.n if pick is None else page.n[pick]
         start = stop
     return out[0], out[1], out[2], n_out

@@ -52,7 +52,7 @@ def test_point_blocks_filter_by_bbox_and_level(x0, y0, w, h, mask):
     g, w = np.lexsort((got[2], got[1], got[0])), np.lexsort((z[want], y[want], x[want]))
     np.testing.assert_array_equal(got[0][g], x[want][w])  # half metres: exact as offsets
     np.testing.assert_array_equal(got[1][g], y[want][w])
-    np.testing.assert_allclose(got[2][g], z[want][w], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(got[2][g], z[want][w], rtol=0, atol=2.0**-15)
 
 
 def test_whole_blocks_inside_a_box_come_whole():
@@ -72,8 +72,8 @@ def test_whole_blocks_inside_a_box_come_whole():
     relief=st.floats(0, 2000),
 )
 def test_point_pages_keep_coordinates_to_their_stated_precision(seed, east, north, low, relief):
-    """Offsets in float32 from the block's corner and the page's lowest point: within 2^-15 m
-    horizontally and 2^-24 of the page's height range vertically, wherever the survey lies."""
+    """x, y as float32 offsets from the block's corner, z in whole 2^-14 m: within 2^-17 m
+    horizontally and 2^-15 m vertically, wherever the survey lies."""
     rng = np.random.default_rng(seed)
     x = east + rng.uniform(0, 700, 500)
     y = north + rng.uniform(0, 700, 500)
@@ -82,9 +82,9 @@ def test_point_pages_keep_coordinates_to_their_stated_precision(seed, east, nort
     inf = float("inf")
     got = points_from_blocks(list(point_blocks(x, y, z, n)), (-inf, -inf, inf, inf), mask=15)
     g, w = np.lexsort((got[1], got[0])), np.lexsort((y, x))
-    assert np.abs(got[0][g] - x[w]).max() <= 2.0**-15
-    assert np.abs(got[1][g] - y[w]).max() <= 2.0**-15
-    assert np.abs(got[2][g] - z[w]).max() <= max(relief, 1.0) * 2.0**-23
+    assert np.abs(got[0][g] - x[w]).max() <= 2.0**-17
+    assert np.abs(got[1][g] - y[w]).max() <= 2.0**-17
+    assert np.abs(got[2][g] - z[w]).max() <= 2.0**-15
     np.testing.assert_array_equal(got[3][g], n[w])
 
 
