@@ -36,9 +36,9 @@ import os
 import tempfile
 import warnings
 from collections import Counter
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
@@ -70,6 +70,7 @@ from tdb.raster import Raster
 from tdb.threads import keep_freed_memory, one_blas_thread
 from tdb.tiles import LEVELS, SUBGRID, tile_key
 from tdb.units import to_metres, units_of
+from tdb.version_writer import VersionWriter
 
 BLOCK = 512.0  # m: side of a block; a multiple of the coarsest tile (16 m)
 BUFFER = 64.0  # m: see the module's description
@@ -157,25 +158,23 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     done = set(spool.finished())
     # Where only a region is wanted, only it and its buffer are read (COPC files by range).
     wanted = None if b.region is None else _grown(area, b.buffer)
+    info = VersionInfo(acquired=acquired, source=_described(catalog), crs=None if crs is None else crs.to_wkt())
     with tempfile.TemporaryDirectory(prefix="tdb-blocks-") as tmp:
         sc = _scatter(catalog, blocks, Path(tmp), report, exclude=o.exclude, box=wanted, skip=done)
         o = _resolved(o, settings, sc, blocks, b, crs, report)
         spool.record({"density": o.density, "flat_threshold": o.flat_threshold})
-        _model(blocks, sc.files, o, b, crs, Counted(report, sc.own), spool=spool, skip=done)
-    stored = _store(
-        db,
-        version,
-        spool,
-        acquired=acquired,
-        replace=replace,
-        options=o,
-        crs=crs,
-        source=catalog,
-        bounds=area,
-        progress=report,
-    )
+        # Blocks are written as they come, while the others are modelled, into the one
+        # transaction of the version: nothing is committed before the last block.
+        with db.writing(version, info=info, replace=replace) as writer:
+            store = _Store(writer, o)
+            for k in sorted(done):
+                store.add(spool.get(k))
+            _model(blocks, sc.files, o, b, crs, Counted(report, sc.own), keep=_Kept(spool, store), skip=done)
+            store.describe(area)
+    if not store.totals.echo_test:
+        warnings.warn(f"{catalog.files[0].path}: {SINGLE_RETURNS}", TdbWarning, stacklevel=2)
     spool.remove()
-    return stored
+    return db.version(version)
 
 
 def _run(catalog: Catalog, o: IngestOptions, b: Blocking) -> dict[str, Any]:
@@ -340,10 +339,10 @@ def _model(  # noqa: PLR0913 (the blocks, their points, how, and where results g
     crs: Any,
     report: Counted,
     *,
-    spool: Spool,
+    keep: Callable[[int, BlockResult | None], None],
     skip: set[int],
 ) -> None:
-    """Model the blocks not in ``skip``, each result kept in ``spool`` as it comes."""
+    """Model the blocks not in ``skip``, each result given to ``keep`` as it comes."""
     jobs = [(k, blk, path, o, crs) for k, (blk, path) in enumerate(zip(blocks, files)) if k not in skip]
     # the largest blocks first, so that no worker is left with a big one while the others idle
     jobs = sorted((j for j in jobs if j[2].exists()), key=lambda j: -j[2].stat().st_size)
@@ -358,11 +357,11 @@ def _model(  # noqa: PLR0913 (the blocks, their points, how, and where results g
         with pool:
             for future in as_completed([pool.submit(_one_block_args, job) for job in jobs]):
                 k, r = future.result()
-                spool.put(k, r)
+                keep(k, r)
                 report.finished(k)
         return
     for k, r in results:
-        spool.put(k, r)
+        keep(k, r)
         report.finished(k)
 
 
@@ -533,53 +532,55 @@ def _crop(dtm: Raster, box: Box) -> Raster:
     return Raster(data, dtm.x0 + cols[0] * dtm.cell, dtm.y1 - rows[0] * dtm.cell, dtm.cell, dtm.crs)
 
 
-def _store(  # noqa: PLR0913 (the version and what is recorded of it)
-    db: Database,
-    version: str,
-    spool: Spool,
-    *,
-    acquired: Any,
-    replace: bool,
-    options: IngestOptions,
-    crs: Any,
-    source: Catalog,
-    bounds: Box,
-    progress: Progress,
-) -> Version:
-    """The finished blocks written as one version, one block at a time, in one transaction."""
-    finished = spool.finished()
-    totals = Totals()
-    info = VersionInfo(
-        acquired=acquired,
-        source=f"{len(source.files)} file(s): {source.files[0].path}" + (" …" if len(source.files) > 1 else ""),
-        crs=None if crs is None else crs.to_wkt(),
-    )
-    with db.writing(version, info=info, replace=replace) as writer:
-        progress("storing", 0, len(finished))
-        for n, k in enumerate(finished, start=1):
-            r: BlockResult | None = spool.get(k)
-            if r is not None:
-                totals.add(r)
-                writer.add(
-                    levels=r.levels,
-                    points=r.points,
-                    evidence=r.evidence,
-                    objects=(r.trees, r.buildings) if options.objects else None,
-                )
-            progress("storing", n, len(finished))
-        if not totals.blocks:
+def _described(source: Catalog) -> str:
+    first = source.files[0].path
+    return f"{len(source.files)} file(s): {first}" + (" …" if len(source.files) > 1 else "")
+
+
+@dataclass
+class _Store:
+    """The version being written: each block's result added as it comes, its figures summed."""
+
+    writer: VersionWriter
+    options: IngestOptions
+    totals: Totals = field(default_factory=Totals)
+
+    def add(self, r: BlockResult | None) -> None:
+        if r is None:
+            return
+        self.totals.add(r)
+        self.writer.add(
+            levels=r.levels,
+            points=r.points,
+            evidence=r.evidence,
+            objects=(r.trees, r.buildings) if self.options.objects else None,
+        )
+
+    def describe(self, bounds: Box) -> None:
+        """The version's parameters and figures, once every block is in."""
+        t, o = self.totals, self.options
+        if not t.blocks:
             raise InputError("the survey holds no points to model")
         params = {
-            "method": str(options.method),
-            "resolution": options.resolution,
+            "method": str(o.method),
+            "resolution": o.resolution,
             "subgrid": SUBGRID,
-            "flat_threshold": totals.flat_threshold,
-            "density": options.density,
-            "exclude_classes": list(options.exclude),
-            "blocks": totals.blocks,
-            "finest_level": min(totals.tiles),
+            "flat_threshold": t.flat_threshold,
+            "density": o.density,
+            "exclude_classes": list(o.exclude),
+            "blocks": t.blocks,
+            "finest_level": min(t.tiles),
         }
-        writer.describe(params=params, stats=totals.stats(bounds).to_json())
-    if not totals.echo_test:
-        warnings.warn(f"{source.files[0].path}: {SINGLE_RETURNS}", TdbWarning, stacklevel=2)
-    return db.version(version)
+        self.writer.describe(params=params, stats=t.stats(bounds).to_json())
+
+
+@dataclass(frozen=True)
+class _Kept:
+    """Where a modelled block goes: kept on disk for a resumed run, and into the version."""
+
+    spool: Spool
+    store: _Store
+
+    def __call__(self, k: int, r: BlockResult | None) -> None:
+        self.spool.put(k, r)
+        self.store.add(r)
