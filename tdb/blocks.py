@@ -62,7 +62,7 @@ def _from_raster_blocks(
     held where ``held`` says so of the last layer."""
     side = TILES_PER_BLOCK * level
     x0, y0, x1, y1 = bbox
-    xs_, ys_, values = [], [], []
+    picked = []
     for bx, by, blob in blocks:
         raster = np.frombuffer(blob, dtype).reshape(layers, TILES_PER_BLOCK, TILES_PER_BLOCK)
         xs = bx * side + np.arange(TILES_PER_BLOCK, dtype=np.int64) * level
@@ -73,14 +73,38 @@ def _from_raster_blocks(
             continue
         # the tiles in a box are a run of rows and columns: slices, not a gather
         sub = raster[:, rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
-        r, c = np.nonzero(held(sub[-1]))
-        xs_.append(xs[cols[0] + c])
-        ys_.append(ys[rows[0] + r])
-        values.append(sub[:, r, c])
-    if not values:
-        return np.empty(0, np.int64), np.empty(0, np.int64), [np.empty(0, dtype) for _ in range(layers)]
-    stacked = np.concatenate(values, axis=1)
-    return np.concatenate(xs_), np.concatenate(ys_), list(stacked)
+        mask = held(sub[-1])
+        # a part wholly held (the common case inside a survey) needs no list of its tiles
+        picked.append((xs[cols[0] : cols[-1] + 1], ys[rows[0] : rows[-1] + 1], sub, None if mask.all() else mask))
+    return _gathered(picked, layers, dtype)
+
+
+def _gathered(
+    picked: list[tuple[NDArray[np.int64], NDArray[np.int64], NDArray[Any], NDArray[np.bool_] | None]],
+    layers: int,
+    dtype: str,
+) -> tuple[NDArray[np.int64], NDArray[np.int64], list[NDArray[Any]]]:
+    """The held tiles of each block's part (its columns' x, rows' y, layers, held mask or None
+    where all are held), row by row, written once into arrays of the final size."""
+    total = sum(sub[0].size if mask is None else int(mask.sum()) for _, _, sub, mask in picked)
+    xg, yg = np.empty(total, np.int64), np.empty(total, np.int64)
+    values = np.empty((layers, total), dtype)
+    start = 0
+    for xs, ys, sub, mask in picked:
+        if mask is None:
+            h, w = sub.shape[1:]
+            stop = start + h * w
+            xg[start:stop].reshape(h, w)[:] = xs[None, :]
+            yg[start:stop].reshape(h, w)[:] = ys[:, None]
+            for k in range(layers):
+                values[k, start:stop].reshape(h, w)[:] = sub[k]
+        else:
+            r, c = np.nonzero(mask)
+            stop = start + len(r)
+            xg[start:stop], yg[start:stop] = xs[c], ys[r]
+            values[:, start:stop] = sub[:, r, c]
+        start = stop
+    return xg, yg, list(values)
 
 
 def tile_blocks(
