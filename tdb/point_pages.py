@@ -33,23 +33,20 @@ POINT_BYTES = 13  # x, y float32 offsets, z int32 and n uint8
 
 @dataclass(frozen=True)
 class Page:
-    """A decoded page: x, y as stored (offsets from ``origin``), z as stored (in ``z_unit``) and
-    the level masks ``n``."""
+    """A decoded page: x, y, z as stored, each placed by its (offset, unit) in ``placing``
+    (a coordinate is stored × unit + offset), and the level masks ``n``."""
 
     x: NDArray[Any]
     y: NDArray[Any]
     z: NDArray[Any]
     n: NDArray[np.uint8]
-    origin: tuple[float, float]
-    z_unit: float
+    placing: tuple[tuple[float, float], tuple[float, float], tuple[float, float]]
 
-    def absolute(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        ox, oy = self.origin
-        return (
-            self.x.astype(np.float64) + ox,
-            self.y.astype(np.float64) + oy,
-            self.z.astype(np.float64) * self.z_unit,
-        )
+    def stored(self) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any]]:
+        return self.x, self.y, self.z
+
+    def absolute(self) -> list[NDArray[np.float64]]:
+        return [c.astype(np.float64) * unit + offset for c, (offset, unit) in zip(self.stored(), self.placing)]
 
 
 def point_blocks(
@@ -63,8 +60,9 @@ def point_blocks(
     InputError
         If a height lies beyond ±131 km (not a height in metres).
     """
-    if len(z) and not np.abs(z).max() < 2**31 * Z_UNIT:
-        raise InputError(f"heights up to {np.abs(z).max():.6g} m: not heights in metres")
+    highest = float(np.abs(z).max()) if len(z) else 0.0
+    if not highest < 2**31 * Z_UNIT:
+        raise InputError(f"heights up to {highest:.6g} m: not heights in metres")
     bx = np.floor(x / POINT_BLOCK).astype(np.int64)
     by = np.floor(y / POINT_BLOCK).astype(np.int64)
     order = np.lexsort((by, bx))
@@ -89,10 +87,11 @@ def decoded(bx: int, by: int, blob: bytes) -> Page:
         xy = np.frombuffer(blob, "<f4", count=2 * m, offset=len(TAG))
         z = np.frombuffer(blob, "<i4", count=m, offset=len(TAG) + 8 * m)
         n = np.frombuffer(blob, np.uint8, offset=len(TAG) + 12 * m)
-        return Page(xy[:m], xy[m:], z, n, (bx * POINT_BLOCK, by * POINT_BLOCK), Z_UNIT)
+        return Page(xy[:m], xy[m:], z, n, ((bx * POINT_BLOCK, 1.0), (by * POINT_BLOCK, 1.0), (0.0, Z_UNIT)))
     m = len(blob) // OLD_POINT_BYTES
     f = np.frombuffer(blob, "<f8", count=3 * m)
-    return Page(f[:m], f[m : 2 * m], f[2 * m :], np.frombuffer(blob, np.uint8, offset=24 * m), (0.0, 0.0), 1.0)
+    n = np.frombuffer(blob, np.uint8, offset=24 * m)
+    return Page(f[:m], f[m : 2 * m], f[2 * m :], n, ((0.0, 1.0), (0.0, 1.0), (0.0, 1.0)))
 
 
 def points_from_blocks(
@@ -108,7 +107,7 @@ def points_from_blocks(
     picked: list[tuple[Page, NDArray[np.intp] | None]] = []
     for bx, by, blob in blocks:
         page = decoded(bx, by, blob)
-        ox, oy = page.origin
+        (ox, _), (oy, _), _ = page.placing
         keep = (page.n & mask) > 0
         # only where the box's edge cuts a block need its points be placed; the bounds are numpy
         # float64 scalars so that float32 offsets are compared in float64, as they are returned
@@ -123,15 +122,13 @@ def points_from_blocks(
     start = 0
     for page, pick in picked:
         stop = start + (len(page.n) if pick is None else len(pick))
-        for column, stored, offset in zip(out[:2], (page.x, page.y), page.origin):
+        for column, stored, (offset, unit) in zip(out, page.stored(), page.placing):
             part = column[start:stop]
             part[:] = stored if pick is None else stored[pick]
+            if unit != 1.0:
+                part *= unit
             if offset:
                 part += offset
-        part = out[2][start:stop]
-        part[:] = page.z if pick is None else page.z[pick]
-        if page.z_unit != 1.0:
-            part *= page.z_unit
         n_out[start:stop] = page.n if pick is None else page.n[pick]
         start = stop
     return out[0], out[1], out[2], n_out

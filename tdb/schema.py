@@ -35,8 +35,8 @@ from sqlalchemy import (
 from tdb.tiles import LEVELS
 
 # 2: tile_blocks, point_blocks; 3: evidence_blocks, coregistrations; 4: trees, buildings;
-# 5: the objects keyed by their block first; 6: point pages of float32 offsets (tdb.point_pages;
-# those written before are still read, but an older tdb would misread the new ones)
+# 5: the objects keyed by their block first; 6: point pages of float32 x, y offsets and int32 z
+# (tdb.point_pages; those written before are still read, but an older tdb would misread the new)
 SCHEMA_VERSION = 6
 LEVEL_TABLES = {level: f"c{level}" for level in LEVELS}
 
