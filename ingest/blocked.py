@@ -38,6 +38,7 @@ import warnings
 from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
@@ -159,7 +160,8 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     # Where only a region is wanted, only it and its buffer are read (COPC files by range).
     wanted = None if b.region is None else _grown(area, b.buffer)
     info = VersionInfo(acquired=acquired, source=_described(catalog), crs=None if crs is None else crs.to_wkt())
-    with tempfile.TemporaryDirectory(prefix="tdb-blocks-") as tmp:
+    # The workers start now, so that they load their modules while this process reads the input.
+    with _pool(b, len(blocks) - len(done)) as pool, tempfile.TemporaryDirectory(prefix="tdb-blocks-") as tmp:
         sc = _scatter(catalog, blocks, Path(tmp), report, exclude=o.exclude, box=wanted, skip=done)
         o = _resolved(o, settings, sc, blocks, b, crs, report)
         spool.record({"density": o.density, "flat_threshold": o.flat_threshold})
@@ -169,7 +171,8 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
             store = _Store(writer, o)
             for k in sorted(done):
                 store.add(spool.get(k))
-            _model(blocks, sc.files, o, b, crs, Counted(report, sc.own), keep=_Kept(spool, store), skip=done)
+            jobs = _jobs(blocks, sc.files, o, crs, skip=done)
+            _model(jobs, b, pool, Counted(report, sc.own), keep=_Kept(spool, store))
             store.describe(area)
     if not store.totals.echo_test:
         warnings.warn(f"{catalog.files[0].path}: {SINGLE_RETURNS}", TdbWarning, stacklevel=2)
@@ -331,35 +334,56 @@ def _touched(grown: NDArray[np.float64], box: Box) -> NDArray[np.intp]:
     )
 
 
-def _model(  # noqa: PLR0913 (the blocks, their points, how, and where results go)
-    blocks: list[_Block],
-    files: list[Path],
-    o: IngestOptions,
+def _jobs(blocks: list[_Block], files: list[Path], o: IngestOptions, crs: Any, *, skip: set[int]) -> list[Job]:
+    """The blocks that hold points and are not in ``skip``, the largest first, so that no worker is
+    left with a big one while the others idle."""
+    jobs = [(k, blk, path, o, crs) for k, (blk, path) in enumerate(zip(blocks, files)) if k not in skip]
+    return sorted((j for j in jobs if j[2].exists()), key=lambda j: -j[2].stat().st_size)
+
+
+@contextmanager
+def _pool(b: Blocking, blocks: int) -> Iterator[ProcessPoolExecutor | None]:
+    """The local worker processes for ``blocks`` blocks, started at once (None where one process
+    or a cluster models them)."""
+    workers = min(b.workers or available_cores(), blocks)
+    if b.scheduler is not None or workers <= 1:
+        yield None
+        return
+    # spawn: a forked child would inherit the parent's threads and locks
+    with ProcessPoolExecutor(workers, mp_context=get_context("spawn"), initializer=_worker_start) as pool:
+        for _ in range(workers):  # one process is spawned per task while none is idle
+            pool.submit(int)
+        try:
+            yield pool
+        except BaseException:
+            pool.shutdown(wait=False, cancel_futures=True)  # a failed run does not model the rest
+            raise
+
+
+def _worker_start() -> None:
+    """A local worker's initializer. Being of this module, it loads every module a block needs
+    when the process starts, before its first block arrives."""
+    one_blas_thread_here()
+
+
+def _model(
+    jobs: list[Job],
     b: Blocking,
-    crs: Any,
+    pool: ProcessPoolExecutor | None,
     report: Counted,
     *,
     keep: Callable[[int, BlockResult | None], None],
-    skip: set[int],
 ) -> None:
-    """Model the blocks not in ``skip``, each result given to ``keep`` as it comes."""
-    jobs = [(k, blk, path, o, crs) for k, (blk, path) in enumerate(zip(blocks, files)) if k not in skip]
-    # the largest blocks first, so that no worker is left with a big one while the others idle
-    jobs = sorted((j for j in jobs if j[2].exists()), key=lambda j: -j[2].stat().st_size)
+    """Model the blocks of ``jobs`` in ``pool``, on ``b``'s cluster or here, each result given to
+    ``keep`` as it comes."""
     report.start([j[0] for j in jobs])
+    results: Iterator[tuple[int, BlockResult | None]]
     if b.scheduler is not None:
         results = _on_cluster(jobs, b.scheduler)
-    elif (workers := min(b.workers or available_cores(), len(jobs))) <= 1:
-        results = map(_one_block_args, jobs)
+    elif pool is not None:
+        results = (f.result() for f in as_completed([pool.submit(_one_block_args, job) for job in jobs]))
     else:
-        # spawn: a forked child would inherit the parent's threads and locks
-        pool = ProcessPoolExecutor(workers, mp_context=get_context("spawn"), initializer=one_blas_thread_here)
-        with pool:
-            for future in as_completed([pool.submit(_one_block_args, job) for job in jobs]):
-                k, r = future.result()
-                keep(k, r)
-                report.finished(k)
-        return
+        results = map(_one_block_args, jobs)
     for k, r in results:
         keep(k, r)
         report.finished(k)
