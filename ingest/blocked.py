@@ -490,7 +490,7 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
     # A worker's warnings would not reach the caller: what they say is returned and said once.
     with one_blas_thread(), warnings.catch_warnings():
         warnings.simplefilter("ignore", TdbWarning)
-        s = survey(cloud, options=dataclasses.replace(o, extent=blk.extent))
+        s = survey(cloud, options=dataclasses.replace(o, extent=blk.extent), measure=False)
     m = s.model
     levels = {}
     for level, t in m.levels.items():

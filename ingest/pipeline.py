@@ -91,8 +91,17 @@ class IngestOptions:
             raise InputError(f"a flat threshold is a height range of 0 m or more, got {t}")
 
 
-def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress: Progress | None = None) -> Survey:
+def survey(
+    cloud: PointCloud,
+    *,
+    options: IngestOptions | None = None,
+    progress: Progress | None = None,
+    measure: bool = True,
+) -> Survey:
     """Derive the terrain model of one cloud (pure: nothing is written).
+
+    ``measure``: whether the model carries its reduction figures; a caller keeping only a part
+    of it (a block's own square) measures that part instead.
 
     ``progress`` (:mod:`tdb.progress`) is told each step as it starts, and the ground filter's
     tiles as they finish. ``options.crs`` and ``options.labels`` are for reading: see :func:`ingest`.
@@ -115,7 +124,7 @@ def survey(cloud: PointCloud, *, options: IngestOptions | None = None, progress:
         seen = metric.xyz[~excluded(metric.classification, o.exclude)]
         threshold = pilot_threshold(gxyz, fullest_square(square_counts(seen[:, 0], seen[:, 1])))
     report("categories and reduction", 0, 1)
-    model = build(dtm, flat_threshold=threshold, n=SUBGRID)
+    model = build(dtm, flat_threshold=threshold, n=SUBGRID, measure=measure)
     finest = model.levels[min(model.levels)]
     spacing = quantised(point_spacing(metric.xyz[:, :2]))
     evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm, noise=quiet)

@@ -40,7 +40,12 @@ class TerrainModel:
 
 
 def build(
-    dtm: Raster, *, flat_threshold: float, n: int = SUBGRID, levels: tuple[int, ...] = LEVELS
+    dtm: Raster,
+    *,
+    flat_threshold: float,
+    n: int = SUBGRID,
+    levels: tuple[int, ...] = LEVELS,
+    measure: bool = True,
 ) -> TerrainModel:
     """Categorise every tile of every level and reduce the dense model to the kept points.
 
@@ -49,6 +54,8 @@ def build(
     dtm : the dense ground model (node-registered posts, NaN = no data).
     flat_threshold : tiles with a smaller height range (m) are flat.
     n : sub-grid size per tile side.
+    measure : whether to measure the reduction (:func:`reduction_stats`); a caller that keeps
+        a part of the model measures that part instead.
     """
     unit = min(levels) / (n - 1)
     out: dict[int, LevelTiles] = {}
@@ -75,6 +82,8 @@ def build(
     z = dtm.sample(x, y)
     good = ~np.isnan(z)
     model = TerrainModel(out, x[good], y[good], z[good], mask[good])
+    if not measure:
+        return model
     stats = reduction_stats(dtm, model, n=n, dense=finest_grid)
     return TerrainModel(model.levels, model.x, model.y, model.z, model.n, stats)
 
