@@ -43,10 +43,10 @@ def envelope_lift(
         q = xyz[nb] - p[:, None, :]  # neighbours about the point itself
         u, v = q[..., 0], q[..., 1]
         design = np.stack([np.ones_like(u), u, v, u * u, u * v, v * v], axis=-1)
-        normal = np.einsum("nki,nkj->nij", design, design) + 1e-6 * np.eye(6)
-        coef = np.linalg.solve(normal, np.einsum("nki,nk->ni", design, q[..., 2])[..., None])[..., 0]
+        across = design.transpose(0, 2, 1)
+        coef = np.linalg.solve(across @ design + 1e-6 * np.eye(6), across @ q[..., 2:3])[..., 0]
         # the surface's rise from each neighbour to the point: f(0) − f(u, v)
-        rise = coef[:, None, 0] - np.einsum("nkj,nj->nk", design, coef)
+        rise = coef[:, None, 0] - (design @ coef[..., None])[..., 0]
         carried = q[..., 2] + rise + TOLERANCE * np.hypot(u, v)
         out[s : s + CHUNK] = np.maximum(-carried.min(axis=1), 0.0)
     return out
@@ -78,9 +78,9 @@ def tile_evidence(
     depth = tile_depth(g, surface, xg, yg)
     layer = tile_layer(lift, xg, yg, floor=noise_lift(spacing, noise), window=layer_window(spacing))
     radius = SUPPORT_SPACINGS * spacing
-    distance = _node_distance(g, xg, yg, radius)
-    support = (distance <= radius).mean(axis=1)
-    gap = np.maximum(distance - radius, 0.0).mean(axis=1)
+    beyond = _node_gaps(g, xg, yg, radius)
+    support = (beyond == 0).mean(axis=1)
+    gap = beyond.mean(axis=1)
     return TileEvidence(xg, yg, *(a.astype(np.float32) for a in (lift, gap, depth, layer, support)))
 
 
@@ -227,27 +227,53 @@ def _tile_lift(g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int
         return np.where(own > 0, total[at] / own, np.where(near_count > 0, near_total / near_count, 0.0))
 
 
-def _node_distance(
+def _node_gaps(
     g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64], radius: float
 ) -> NDArray[np.float64]:
-    """(tiles, 9): distance (m) from each tile's 3 × 3 nodes to the nearest ground return. Beyond
-    a few hundred metres it is capped: the gap term is then large enough to claim nothing.
+    """(tiles, 9): how far (m) each tile's 3 × 3 nodes lie beyond ``radius`` from the nearest
+    ground return (0 within it). Beyond a few hundred metres it is capped: the gap term is then
+    large enough to claim nothing.
 
     Neighbouring tiles share nodes: each node is found once, on a raster of the node lattice over
-    the tiles' extent (smaller than the dense model's), and read back by its place."""
+    the tiles' extent (smaller than the dense model's), and read back by its place. Each return
+    first marks the nodes within ``radius`` of it, a few passes over the returns; only the nodes
+    left unmarked, the gaps, need their nearest return searched for."""
     step = LEVEL // 2
     du, dv = (a.ravel() for a in np.meshgrid([0, 1, 2], [0, 1, 2]))  # in node steps
     cap = max(100.0 * radius, 50.0)
     if len(g) == 0:
-        return np.full((len(xg), 9), cap)
+        return np.full((len(xg), 9), max(cap - radius, 0.0))
     x0, y0 = int(xg.min()), int(yg.min())
     ci, cj = (xg - x0) // step, (yg - y0) // step
     touched = np.zeros((int(cj.max()) + 3, int(ci.max()) + 3), bool)
     rows, cols = cj[:, None] + dv, ci[:, None] + du
     touched[rows, cols] = True
-    nj, ni = np.nonzero(touched)
-    nodes = np.column_stack([x0 + ni * float(step), y0 + nj * float(step)])
-    d, _ = cKDTree(g[:, :2]).query(nodes, k=1, distance_upper_bound=cap)
-    distance = np.full(touched.shape, cap)
-    distance[nj, ni] = np.minimum(d, cap)
-    return distance[rows, cols]
+    near = _near_nodes(g, touched.shape, (x0, y0), step, radius)
+    nj, ni = np.nonzero(touched & ~near)
+    beyond = np.zeros(touched.shape)
+    if len(nj):
+        nodes = np.column_stack([x0 + ni * float(step), y0 + nj * float(step)])
+        d, _ = cKDTree(g[:, :2]).query(nodes, k=1, distance_upper_bound=cap)
+        beyond[nj, ni] = np.maximum(np.minimum(d, cap) - radius, 0.0)
+    return beyond[rows, cols]
+
+
+def _near_nodes(
+    g: NDArray[np.float64], shape: tuple[int, int], origin: tuple[int, int], step: int, radius: float
+) -> NDArray[np.bool_]:
+    """The nodes of a lattice (``shape``, its first node at ``origin``, ``step`` m apart) that lie
+    within ``radius`` of a return of ``g``: every node near enough to each return, one offset at a
+    time."""
+    near = np.zeros(shape, bool)
+    u, v = (g[:, 0] - origin[0]) / step, (g[:, 1] - origin[1]) / step
+    i0, j0 = np.floor(u).astype(np.int64), np.floor(v).astype(np.int64)
+    reach = int(np.ceil(radius / step))
+    r2 = (radius / step) ** 2
+    for di in range(-reach, reach + 1):
+        i = i0 + di
+        dx2 = (i - u) ** 2
+        for dj in range(-reach, reach + 1):
+            j = j0 + dj
+            hit = (dx2 + (j - v) ** 2 <= r2) & (i >= 0) & (j >= 0) & (i < shape[1]) & (j < shape[0])
+            near[j[hit], i[hit]] = True
+    return near

@@ -50,7 +50,7 @@ def ground_noises(
     _, nb = cKDTree(xyz[:, :2]).query(xyz[pick, :2], k=k)
     pts = xyz[nb]
     centred = pts - pts.mean(axis=1, keepdims=True)
-    cov = np.einsum("nki,nkj->nij", centred, centred) / (k - 3)
+    cov = centred.transpose(0, 2, 1) @ centred / (k - 3)
     smallest = np.maximum(np.linalg.eigvalsh(cov)[:, 0], 0.0)
     return tuple(float(np.sqrt(np.percentile(smallest, q))) for q in quantiles)
 

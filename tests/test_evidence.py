@@ -345,3 +345,27 @@ def test_an_understorey_is_no_rise_but_a_platform_is(tmp_path, monkeypatch):
     uncut = _reported_in(db, *boxes)[1]
     assert uncut > 0.8 * 32 * 32
     assert stood < 0.5 * uncut
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    n=st.integers(1, 60),
+    spacing=st.sampled_from([0.3, 0.7, 1.0, 1.8, 3.0]),
+    seed=st.integers(0, 10_000),
+)
+def test_support_and_gap_are_those_of_the_nearest_return(n, spacing, seed):
+    """Every node's support and gap, found by marking the nodes near each return and searching
+    only the rest, equal those of the nearest return found by brute force."""
+    rng = np.random.default_rng(seed)
+    # returns in clumps, with wide gaps between them, some exactly on nodes
+    g = np.column_stack([rng.uniform(0, 30, n), rng.uniform(0, 30, n), np.zeros(n)])
+    g[: n // 3, :2] = np.round(g[: n // 3, :2])
+    xg, yg = (a.ravel().astype(np.int64) for a in np.meshgrid(np.arange(-4, 34, 2), np.arange(-4, 34, 2)))
+    surface = dense_model(np.array([[-10, -10, 0], [50, -10, 0], [-10, 50, 0], [50, 50, 0.0]]), resolution=1.0)
+    e = tile_evidence(g, xg, yg, spacing=spacing, surface=surface)
+    radius = SUPPORT_SPACINGS * spacing
+    nx = (xg[:, None] + np.array([0, 1, 2] * 3)[None, :]).ravel()
+    ny = (yg[:, None] + np.repeat([0, 1, 2], 3)[None, :]).ravel()
+    d = np.hypot(nx[:, None] - g[None, :, 0], ny[:, None] - g[None, :, 1]).min(axis=1).reshape(len(xg), 9)
+    np.testing.assert_allclose(e.support, (d <= radius).mean(axis=1), atol=1e-6)
+    np.testing.assert_allclose(e.gap, np.maximum(d - radius, 0.0).mean(axis=1), rtol=1e-5, atol=1e-4)
