@@ -25,18 +25,24 @@ def node_grid(dtm: Raster, level: int, *, n: int = SUBGRID) -> NodeLattice:
     iy1 = int(np.ceil(y1 / level - 1e-9)) * (n - 1)
     xs = np.arange(ix0, ix1 + 1) * s
     ys = np.arange(iy0, iy1 + 1) * s
-    source = _smoothed(dtm, sigma=0.5 * s / dtm.cell) if s > dtm.cell * 1.01 else dtm
-    z = _on_posts(source, xs, ys)
-    if z is None:
+    smooth = s > dtm.cell * 1.01
+    at = _post_index(dtm, xs, ys)
+    if at is not None:
+        z = _smoothed_at(dtm, at, sigma=0.5 * s / dtm.cell) if smooth else _read_at(dtm.data, at)
+    else:
+        source = _smoothed(dtm, sigma=0.5 * s / dtm.cell) if smooth else dtm
         gx, gy = np.meshgrid(xs, ys)
         z = source.sample(gx.ravel(), gy.ravel()).reshape(gx.shape)
     return NodeLattice(z, ix0, iy0, s)
 
 
-def _on_posts(raster: Raster, xs: np.ndarray, ys: np.ndarray) -> np.ndarray | None:
-    """The raster's values at the grid ``xs`` × ``ys`` (rows south to north) where every node lies
-    on a post (what a bilinear read there gives, without one), NaN beyond the raster; None where
-    the nodes fall between posts."""
+_PostIndex = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def _post_index(raster: Raster, xs: np.ndarray, ys: np.ndarray) -> _PostIndex | None:
+    """The raster rows and columns of the grid ``xs`` × ``ys`` (rows south to north) where every
+    node lies on a post, with which of them fall inside the raster; None where the nodes fall
+    between posts."""
     cx, cy = raster.centres()
     col = (xs - cx[0]) / raster.cell
     row = (cy[0] - ys) / raster.cell
@@ -44,9 +50,32 @@ def _on_posts(raster: Raster, xs: np.ndarray, ys: np.ndarray) -> np.ndarray | No
         return None
     col, row = np.rint(col).astype(np.int64), np.rint(row).astype(np.int64)
     rows, cols = raster.shape
-    ok_c, ok_r = (col >= 0) & (col < cols), (row >= 0) & (row < rows)
-    out = np.full((len(ys), len(xs)), np.nan)
-    out[np.ix_(ok_r, ok_c)] = raster.data[np.ix_(row[ok_r], col[ok_c])]
+    return row, col, (row >= 0) & (row < rows), (col >= 0) & (col < cols)
+
+
+def _read_at(data: np.ndarray, at: _PostIndex) -> np.ndarray:
+    """``data`` at the posts ``at`` (what a bilinear read there gives, without one), NaN beyond it."""
+    row, col, ok_r, ok_c = at
+    out = np.full((len(row), len(col)), np.nan)
+    out[np.ix_(ok_r, ok_c)] = data[np.ix_(row[ok_r], col[ok_c])]
+    return out
+
+
+def _smoothed_at(dtm: Raster, at: _PostIndex, *, sigma: float) -> np.ndarray:
+    """:func:`_smoothed` read at the posts ``at``, the same figures: the Gaussian runs down the
+    columns, then along the rows wanted only."""
+    row, col, ok_r, ok_c = at
+    data = dtm.data
+    valid = ~np.isnan(data)
+    rows = row[ok_r]
+    parts = []
+    for layer in (np.where(valid, data, 0.0), valid.astype(float)):
+        down = ndimage.gaussian_filter1d(layer, sigma, axis=0, mode="nearest")[rows]
+        parts.append(ndimage.gaussian_filter1d(down, sigma, axis=1, mode="nearest"))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        smoothed = np.where(valid[rows], parts[0] / parts[1], np.nan)
+    out = np.full((len(row), len(col)), np.nan)
+    out[np.ix_(ok_r, ok_c)] = smoothed[:, col[ok_c]]
     return out
 
 

@@ -153,8 +153,9 @@ def test_a_budget_the_feature_nodes_would_spend_goes_to_the_worst_errors_first()
 
 @pytest.mark.parametrize("level", [2, 4, 8, 16])
 def test_node_lattices_read_on_the_posts_are_the_bilinear_reads(level):
-    """Nodes fall on the dense model's posts: read there directly, they are what a bilinear read gives."""
-    from ingest.tiles import _on_posts, _smoothed, node_grid
+    """Nodes fall on the dense model's posts: read there directly (and smoothed only where read),
+    they are what a bilinear read of the whole smoothed model gives."""
+    from ingest.tiles import _post_index, _smoothed, node_grid
     from tdb.raster import Raster
 
     rng = np.random.default_rng(level)
@@ -166,6 +167,6 @@ def test_node_lattices_read_on_the_posts_are_the_bilinear_reads(level):
     gx, gy = np.meshgrid(xs, ys)
     source = _smoothed(dtm, sigma=0.5 * g.spacing / dtm.cell) if g.spacing > dtm.cell * 1.01 else dtm
     ref = source.sample(gx.ravel(), gy.ravel()).reshape(gx.shape)
-    assert _on_posts(source, xs, ys) is not None  # the direct read, not the bilinear one
+    assert _post_index(source, xs, ys) is not None  # the direct read, not the bilinear one
     np.testing.assert_array_equal(np.isnan(ref), np.isnan(g.z))
     np.testing.assert_allclose(g.z[~np.isnan(ref)], ref[~np.isnan(ref)], atol=1e-12)
