@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import sqlite3
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -76,3 +77,42 @@ def test_check_finds_a_damaged_file(park):
     r = _run("check", park)
     assert r.exit_code != 0 and "Traceback" not in r.output
     assert "damaged" in r.output or "malformed" in r.output
+
+
+def _area(path, version):
+    db = tdb.open(path, readonly=True)
+    try:
+        b = db.version(version).stats.bounds
+        a = db.aoi((b[0], b[1], b[2], b[3]), level=2, version=version)
+        return a.xg, a.yg, a.code, a.x, a.y, a.z, a.n
+    finally:
+        db.close()
+
+
+def test_compact_gives_back_a_deleted_versions_space_and_keeps_the_rest(park):
+    before = _area(park, "B")
+    assert _run("rm", "A", "--db", park).exit_code == 0
+    size = park.stat().st_size
+    r = _run("compact", "--db", park)
+    assert r.exit_code == 0, r.output
+    assert park.stat().st_size < 0.7 * size
+    after = _area(park, "B")
+    for old, new in zip(before, after):
+        np.testing.assert_array_equal(old, new)
+    assert json.loads(_run("check", park, "--json").output)["ok"]
+
+
+def test_compact_into_a_new_file_leaves_the_database_as_it_is(park, tmp_path):
+    original = park.read_bytes()
+    copy = tmp_path / "archive" / "park-compact.tdb"
+    copy.parent.mkdir()
+    r = _run("compact", "--db", park, "--into", copy)
+    assert r.exit_code == 0, r.output
+    assert park.read_bytes() == original
+    assert [v.name for v in tdb.open(copy, readonly=True).versions()] == ["A", "B"]
+    for old, new in zip(_area(park, "A"), _area(copy, "A")):
+        np.testing.assert_array_equal(old, new)
+    # a terrain database is never written over, and nothing is left beside it
+    r = _run("compact", "--db", park, "--into", copy)
+    assert r.exit_code != 0 and "terrain database" in r.output and "Traceback" not in r.output
+    assert sorted(p.name for p in copy.parent.iterdir()) == ["park-compact.tdb"]

@@ -127,3 +127,19 @@ def test_the_command_line_takes_a_postgresql_url_and_says_what_is_wrong_in_one_l
         with pg.engine.begin() as conn:
             conn.exec_driver_sql("DROP OWNED BY tdb_reader")
             conn.exec_driver_sql("DROP ROLE tdb_reader")
+
+
+def test_compact_rewrites_a_server_database_in_place_and_refuses_a_file(pg, tmp_path):
+    from tdb.compact import compact
+    from tdb.errors import InputError
+
+    scene = make_scene(seed=5, size=100)
+    ingest(sample(scene, density=2.0, seed=5), pg, version="s")
+    before = pg.aoi(scene.bounds, level=2)
+    done = compact(pg)
+    assert done.bytes_before is None and done.bytes_after is None
+    after = pg.aoi(scene.bounds, level=2)
+    np.testing.assert_array_equal(np.sort(before.z), np.sort(after.z))
+    assert sorted(before.code.tolist()) == sorted(after.code.tolist())
+    with pytest.raises(InputError, match="server database"):
+        compact(pg, into=tmp_path / "copy.tdb")

@@ -77,6 +77,7 @@ def _register() -> None:
         categories,
         check,
         classify,
+        compact,
         diff,
         ground,
         info,
@@ -88,7 +89,23 @@ def _register() -> None:
         trees,
     )
 
-    for module in (info, synth, ground, classify, trees, ingest, aoi, categories, query, diff, rm, rename, check):
+    commands = (
+        info,
+        synth,
+        ground,
+        classify,
+        trees,
+        ingest,
+        aoi,
+        categories,
+        query,
+        diff,
+        rm,
+        rename,
+        check,
+        compact,
+    )
+    for module in commands:
         main.add_command(module.command)
 
 
