@@ -34,7 +34,7 @@ class Mixture:
             diff = x - self.means[k]
             inv = np.linalg.inv(self.covariances[k])
             _, logdet = np.linalg.slogdet(self.covariances[k])
-            out[:, k] = -0.5 * (np.einsum("ni,ij,nj->n", diff, inv, diff) + logdet + d * np.log(2 * np.pi))
+            out[:, k] = -0.5 * (((diff @ inv) * diff).sum(axis=1) + logdet + d * np.log(2 * np.pi))
         return out
 
     def classify(self, x: NDArray[np.float64]) -> NDArray[np.intp]:
