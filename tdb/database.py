@@ -456,6 +456,7 @@ class Database:
         """Whether the file is whole (SQLite's integrity check) and every version holds the rows
         its figures say: tiles per level, kept points. Reads only."""
         integrity = "not checked (a server database)"
+        free = None
         if self.engine.dialect.name == "sqlite":
             try:
                 with self.engine.connect() as conn:
@@ -463,6 +464,7 @@ class Database:
             except SADatabaseError as exc:
                 found = [str(exc.orig)]
             integrity = "ok" if found == ["ok"] else "damaged: " + "; ".join(found[:3])
+            free = self._free_share()
         checks = []
         try:
             for v in self.versions():
@@ -473,7 +475,17 @@ class Database:
                 checks.append(VersionCheck(v.name, points, tiles, ok))
         except (SADatabaseError, DatabaseError) as exc:
             integrity = f"damaged: {getattr(exc, 'orig', exc)}"
-        return DatabaseCheck(integrity, self.schema_version(), checks)
+        return DatabaseCheck(integrity, self.schema_version(), checks, free)
+
+    def _free_share(self) -> float | None:
+        """The share of an SQLite file's pages that are free (None where unreadable)."""
+        try:
+            with self.engine.connect() as conn:
+                free = conn.exec_driver_sql("PRAGMA freelist_count").scalar() or 0
+                pages = conn.exec_driver_sql("PRAGMA page_count").scalar() or 0
+        except SADatabaseError:
+            return None
+        return float(free) / float(pages) if pages else 0.0
 
     def delete_version(self, name: str) -> None:
         vid = self.version(name).id
@@ -712,6 +724,7 @@ class DatabaseCheck:
     integrity: str
     schema_version: int
     versions: list[VersionCheck]
+    free_share: float | None = None  # of an SQLite file's pages, those free (a deleted version's)
 
     @property
     def ok(self) -> bool:

@@ -93,9 +93,12 @@ def test_compact_gives_back_a_deleted_versions_space_and_keeps_the_rest(park):
     before = _area(park, "B")
     assert _run("rm", "A", "--db", park).exit_code == 0
     size = park.stat().st_size
+    assert json.loads(_run("check", park, "--json").output)["free_share"] > 0.3
+    assert "tdb compact" in _run("check", park).output
     r = _run("compact", "--db", park)
     assert r.exit_code == 0, r.output
     assert park.stat().st_size < 0.7 * size
+    assert json.loads(_run("check", park, "--json").output)["free_share"] == 0.0
     after = _area(park, "B")
     for old, new in zip(before, after):
         np.testing.assert_array_equal(old, new)

@@ -10,14 +10,17 @@ import click
 
 from tdb.cli.options import DATABASE
 
+FREE_NOTE = 0.1  # a share of free pages worth a compaction
+
 
 @click.command("check")
 @click.argument("db_path", type=DATABASE)
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 def command(db_path: Path, as_json: bool) -> None:
     """Check a terrain database without writing to it: the file's integrity (SQLite's own check),
-    its schema version, and whether every version holds the tiles and points its figures record.
-    Exits non-zero where anything is wrong.
+    its schema version, and whether every version holds the tiles and points its figures record;
+    the share of the file's pages left free (by deleted versions). Exits non-zero where anything
+    is wrong.
 
     \b
     Examples:
@@ -32,6 +35,8 @@ def command(db_path: Path, as_json: bool) -> None:
         click.echo(json.dumps({**asdict(report), "ok": report.ok}, indent=2))
     else:
         click.echo(f"{db_path}: schema {report.schema_version}, integrity {report.integrity}")
+        if report.free_share is not None and report.free_share >= FREE_NOTE:
+            click.echo(f"free pages: {100 * report.free_share:.0f} % of the file (tdb compact gives them back)")
         for v in report.versions:
             tiles = "/".join(str(v.tiles[lv]) for lv in sorted(v.tiles))
             click.echo(f"- {v.name}: {v.points:,} points, tiles {tiles}: {'ok' if v.ok else 'rows missing'}")
