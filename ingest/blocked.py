@@ -342,11 +342,15 @@ def _jobs(blocks: list[_Block], files: list[Path], o: IngestOptions, crs: Any, *
 
 
 @contextmanager
-def _pool(b: Blocking, blocks: int) -> Iterator[ProcessPoolExecutor | None]:
-    """The local worker processes for ``blocks`` blocks, started at once (None where one process
-    or a cluster models them)."""
+def _pool(b: Blocking, blocks: int) -> Iterator[Any]:
+    """The workers for ``blocks`` blocks, started at once: a process pool here, or a client of
+    ``b``'s dask cluster (None where this process models them)."""
+    if b.scheduler is not None:
+        with _cluster(b.scheduler) as client:
+            yield client
+        return
     workers = min(b.workers or available_cores(), blocks)
-    if b.scheduler is not None or workers <= 1:
+    if workers <= 1:
         yield None
         return
     # spawn: a forked child would inherit the parent's threads and locks
@@ -366,20 +370,46 @@ def _worker_start() -> None:
     one_blas_thread_here()
 
 
+@contextmanager
+def _cluster(address: str) -> Iterator[Any]:
+    """A client of the dask.distributed scheduler at ``address``, each of whose workers is sent a
+    task of this module at once, so that it loads the modules a block needs meanwhile."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("a cluster needs dask.distributed (pip install 'tdb[cluster]')") from None
+    try:
+        client = Client(address, timeout=CONNECT_SECONDS)
+    except OSError as exc:
+        raise TdbIOError(f"{address}: no dask scheduler answers ({exc})") from None
+    with client:
+        # held until the run ends: a future let go may be cancelled before it runs
+        loading = [
+            client.submit(_loaded, pure=False, workers=[w]) for w in client.scheduler_info().get("workers", {})
+        ]
+        yield client
+        del loading
+
+
+def _loaded() -> bool:
+    """Nothing: a task whose function, being of this module, makes a worker load it."""
+    return True
+
+
 def _model(
     jobs: list[Job],
     b: Blocking,
-    pool: ProcessPoolExecutor | None,
+    pool: Any,
     report: Counted,
     *,
     keep: Callable[[int, BlockResult | None], None],
 ) -> None:
-    """Model the blocks of ``jobs`` in ``pool``, on ``b``'s cluster or here, each result given to
-    ``keep`` as it comes."""
+    """Model the blocks of ``jobs`` on ``pool`` (:func:`_pool`: ``b``'s cluster, a process pool)
+    or here, each result given to ``keep`` as it comes."""
     report.start([j[0] for j in jobs])
     results: Iterator[tuple[int, BlockResult | None]]
     if b.scheduler is not None:
-        results = _on_cluster(jobs, b.scheduler)
+        results = _on_cluster(jobs, pool)
     elif pool is not None:
         results = (f.result() for f in as_completed([pool.submit(_one_block_args, job) for job in jobs]))
     else:
@@ -414,30 +444,23 @@ CONNECT_SECONDS = 20  # how long a scheduler may take to answer
 Job = tuple[int, _Block, Path, IngestOptions, Any]  # a block's index, itself, its points' file, how, the CRS
 
 
-def _on_cluster(jobs: list[Job], address: str) -> Iterator[tuple[int, BlockResult | None]]:
-    """The blocks modelled on a dask.distributed cluster, a few per worker at a time."""
-    try:
-        from distributed import Client, as_completed
-    except ImportError:
-        raise InputError("a cluster needs dask.distributed (pip install 'tdb[cluster]')") from None
-    try:
-        client = Client(address, timeout=CONNECT_SECONDS)
-    except OSError as exc:
-        raise TdbIOError(f"{address}: no dask scheduler answers ({exc})") from None
-    with client:
-        ahead = IN_FLIGHT * max(1, len(client.scheduler_info().get("workers", {})))
-        pending = iter(jobs)
+def _on_cluster(jobs: list[Job], client: Any) -> Iterator[tuple[int, BlockResult | None]]:
+    """The blocks modelled on a dask.distributed cluster (``client``), a few per worker at a time."""
+    from distributed import as_completed
 
-        def send(job: Job) -> Any:
-            k, blk, path, o, crs = job
-            return client.submit(_one_block_at, k, blk, np.fromfile(path, RECORD), o, crs, str(path), pure=False)
+    ahead = IN_FLIGHT * max(1, len(client.scheduler_info().get("workers", {})))
+    pending = iter(jobs)
 
-        queue = as_completed([send(job) for job in itertools.islice(pending, ahead)])
-        for future in queue:
-            yield future.result()
-            nxt = next(pending, None)
-            if nxt is not None:
-                queue.add(send(nxt))
+    def send(job: Job) -> Any:
+        k, blk, path, o, crs = job
+        return client.submit(_one_block_at, k, blk, np.fromfile(path, RECORD), o, crs, str(path), pure=False)
+
+    queue = as_completed([send(job) for job in itertools.islice(pending, ahead)])
+    for future in queue:
+        yield future.result()
+        nxt = next(pending, None)
+        if nxt is not None:
+            queue.add(send(nxt))
 
 
 def _pilot_threshold(
