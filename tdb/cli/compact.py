@@ -18,7 +18,7 @@ from tdb.cli.options import db_option
 )
 def command(db_path: Path, into: Path | None) -> None:
     """Rewrite the database with each table's rows in key order and without the space deleted
-    versions left. Areas are then read in a few runs of the file, which is much faster where the
+    versions left. Areas are then read in a few runs of the file, which is faster where the
     file is larger than the system's cache. In place it needs free disk for about twice the file;
     an interruption leaves the database as it was.
 
