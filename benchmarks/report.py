@@ -323,6 +323,36 @@ def dask_section(out: list[str]) -> None:
     ]
 
 
+def ingest_sites_section(out: list[str]) -> None:
+    doc = _load("ingest_sites")
+    if not doc:
+        return
+    labels = {
+        "read": "read with laspy (the floor)",
+        "ingest": "`tdb ingest` whole",
+        "pysmrf": f"pysmrf ground and its DTM, then a {doc['dem_cell_m']:g} m DEM",
+    }
+    out += [
+        "## Ingest of the ISPRS site clouds beside the floor and a peer",
+        "",
+        "`python -m benchmarks.ingest_sites`: per site, each run its own process, one after another in "
+        "the plain environment. tdb's ingest is the whole job (ground, dense model, categories, reduction, "
+        "evidence, trees and buildings, written); pysmrf runs with PDAL's default parameters. "
+        f"Machine: {_machine(doc)}.",
+        "",
+        "| site | points | km² | run | seconds | points/s | s per km² | peak RSS MiB |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for site, runs in doc["sites"].items():
+        for kind, label in labels.items():
+            r = runs[kind]
+            out.append(
+                f"| {site} | {r['points']:,} | {r['km2']:.2f} | {label} | {r['seconds']:.1f} | "
+                f"{r['points_per_s']:,.0f} | {r['s_per_km2']:.1f} | {r['peak_rss_mib']:.0f} |"
+            )
+    out += ["", "Targets: ≤ 2 s per km² on these sparse clouds, ≥ 1 M points/s on dense ones.", ""]
+
+
 def blocked_section(out: list[str]) -> None:
     doc = _load("blocked_ingest")
     if not doc:
@@ -720,6 +750,7 @@ def main() -> None:
         changes_section,
         coregister_section,
         peers_section,
+        ingest_sites_section,
         blocked_section,
         large_area_section,
         big_db_section,
