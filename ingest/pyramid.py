@@ -106,6 +106,26 @@ def _merged(
     return ii + x0, jj + y0, raster[ii, jj]
 
 
+def _owned_nodes(xg: NDArray[np.int64], yg: NDArray[np.int64], level: int, n: int) -> NDArray[np.bool_]:
+    """(T, n, n): each post once. A node on a tile's east or north edge is its neighbour's there
+    (a node two tiles share is rebuilt the same from either, its edge's nodes), the north-east
+    corner the first of the north-east, east and north neighbours that exists."""
+    ti, tj = xg // level, yg // level
+    i0, j0 = int(ti.min()), int(tj.min())
+    held = np.zeros((int(tj.max()) - j0 + 2, int(ti.max()) - i0 + 2), bool)
+    held[tj - j0, ti - i0] = True
+    east, north, north_east = (
+        held[tj - j0, ti - i0 + 1],
+        held[tj - j0 + 1, ti - i0],
+        held[tj - j0 + 1, ti - i0 + 1],
+    )
+    owned = np.ones((len(xg), n, n), bool)
+    owned[:, :, n - 1] = ~east[:, None]
+    owned[:, n - 1, :] = ~north[:, None]
+    owned[:, n - 1, n - 1] = ~(east | north | north_east)
+    return owned
+
+
 def reduction_stats(
     dtm: Raster, model: TerrainModel, *, n: int = SUBGRID, dense: NodeLattice | None = None
 ) -> ReductionStats:
@@ -122,16 +142,8 @@ def reduction_stats(
     if keep.sum() >= 3 and len(tiles.xg):
         dense = dense if dense is not None else node_grid(dtm, finest, n=n)
         kept = node_lattice(model.x[keep], model.y[keep], model.z[keep], finest)
-        rebuilt = line_rebuild_at(kept.tile_nodes(tiles.xg, tiles.yg))
-        # onto the dense lattice: a node two tiles share is rebuilt the same from either (its edge's nodes)
-        rows, cols = dense.z.shape[0], dense.z.shape[1]
-        on = np.full((rows, cols), np.nan)
-        d = np.arange(n)
-        ni = np.rint(tiles.xg / dense.spacing).astype(np.int64)[:, None] + np.tile(d, n)[None, :] - dense.i0
-        nj = np.rint(tiles.yg / dense.spacing).astype(np.int64)[:, None] + np.repeat(d, n)[None, :] - dense.j0
-        inside = (ni >= 0) & (nj >= 0) & (ni < cols) & (nj < rows)
-        on[nj[inside], ni[inside]] = rebuilt[inside]
-        err = on - dense.z
+        rebuilt = line_rebuild_at(kept.tile_nodes(tiles.xg, tiles.yg)).reshape(-1, n, n)
+        err = (rebuilt - dense.tile_nodes(tiles.xg, tiles.yg))[_owned_nodes(tiles.xg, tiles.yg, finest, n)]
         err = err[np.isfinite(err)]
         if len(err):
             rmse = round(float(np.sqrt(np.mean(err**2))), 4)

@@ -170,3 +170,38 @@ def test_node_lattices_read_on_the_posts_are_the_bilinear_reads(level):
     assert _post_index(source, xs, ys) is not None  # the direct read, not the bilinear one
     np.testing.assert_array_equal(np.isnan(ref), np.isnan(g.z))
     np.testing.assert_allclose(g.z[~np.isnan(ref)], ref[~np.isnan(ref)], atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_reduction_error_counts_every_post_once(seed):
+    """The rebuild's error is measured at every post of the dense model once, though tiles share
+    their edge nodes: the same figures as a post-by-post tally, on a model with ragged edges and holes."""
+    from ingest.pyramid import reduction_stats
+    from ingest.tiles import node_grid
+    from tdb.surface import line_rebuild_at
+    from tdb.tiles import SUBGRID, node_lattice
+
+    rng = np.random.default_rng(seed)
+    rows, cols = 97, 83
+    yy, xx = np.mgrid[0:rows, 0:cols] * 0.5
+    data = np.sin(xx / 3.0) + 0.3 * np.cos(yy / 2.0) + rng.normal(0, 0.05, (rows, cols))
+    data[rng.random((rows, cols)) < 0.02] = np.nan  # holes
+    data[:, : rng.integers(1, 9)] = np.nan  # a ragged edge
+    dtm = Raster(data, 999.75, 1000.25 + 0.5 * rows, 0.5)
+    model = build(dtm, flat_threshold=0.1, measure=False)
+    stats = reduction_stats(dtm, model)
+    tiles = model.levels[2]
+    keep = (model.n & level_bit(2)) > 0
+    kept = node_lattice(model.x[keep], model.y[keep], model.z[keep], 2)
+    rebuilt = line_rebuild_at(kept.tile_nodes(tiles.xg, tiles.yg))
+    dense = node_grid(dtm, 2)
+    truth = dense.tile_nodes(tiles.xg, tiles.yg).reshape(len(tiles.xg), -1)
+    tally: dict[tuple[int, int], float] = {}
+    for t in range(len(tiles.xg)):
+        for k in range(SUBGRID * SUBGRID):
+            e = rebuilt[t, k] - truth[t, k]
+            if np.isfinite(e):
+                tally[(int(tiles.xg[t] * 2) + k % SUBGRID, int(tiles.yg[t] * 2) + k // SUBGRID)] = e
+    err = np.array(list(tally.values()))
+    assert stats.rmse_m == pytest.approx(round(float(np.sqrt(np.mean(err**2))), 4), abs=1e-4)
+    assert stats.max_error_m == pytest.approx(round(float(np.abs(err).max()), 4), abs=1e-4)
