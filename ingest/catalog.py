@@ -20,7 +20,7 @@ import numpy as np
 from ingest.readers import RECORD, Box, from_records, iter_records
 from tdb.cloud import PointCloud
 from tdb.crs import describe
-from tdb.errors import CRSError, FormatError, InputError, TdbIOError
+from tdb.errors import CRSError, FormatError, InputError, TdbError, TdbIOError
 
 SUFFIXES = (".las", ".laz")
 
@@ -102,6 +102,25 @@ def open_catalog(source: str | os.PathLike[str] | Sequence[str | os.PathLike[str
                 "a catalog's tiles must share one coordinate system"
             )
     return Catalog(tuple(files), first)
+
+
+WHOLE_BYTES_PER_POINT = 2_000  # a whole ingest's peak memory per point read (sparse surveys, the most)
+
+
+def too_large_to_model_whole(path: str | os.PathLike[str], *, memory: int | None = None) -> bool:
+    """Whether a LAS/LAZ file holds more points than a whole ingest models in half of ``memory``
+    bytes (default: this machine's), at :data:`WHOLE_BYTES_PER_POINT` each; such a file goes
+    block by block. False for a file whose header gives no count (a text file)."""
+    p = Path(path)
+    if p.suffix.lower() not in SUFFIXES or not p.is_file():
+        return False
+    try:
+        points = open_catalog([p]).points
+    except TdbError:
+        return False  # the reader says what is wrong, as for any file
+    if memory is None:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    return points * WHOLE_BYTES_PER_POINT > memory // 2
 
 
 def is_catalog(source: Any) -> bool:

@@ -120,6 +120,33 @@ def test_the_command_line_ingests_a_directory_of_tiles(scene_file, tmp_path):
         assert d.version("v").params["blocks"] >= 1
 
 
+def test_a_file_too_large_to_model_whole_goes_block_by_block(scene_file, tmp_path, monkeypatch):
+    """Whether a file fits a whole ingest is told from its header's count and the memory; the
+    command line then ingests it block by block and says so."""
+    from click.testing import CliRunner
+
+    import ingest.catalog
+    from ingest.catalog import WHOLE_BYTES_PER_POINT, too_large_to_model_whole
+    from tdb.cli import main
+
+    points = open_catalog([scene_file]).points
+    need = points * WHOLE_BYTES_PER_POINT
+    assert too_large_to_model_whole(scene_file, memory=need)  # half of it is too little
+    assert not too_large_to_model_whole(scene_file, memory=2 * need)
+    text = tmp_path / "s.xyz"
+    text.write_text("0 0 0\n1 0 0\n0 1 0\n")
+    assert not too_large_to_model_whole(text, memory=1)  # no header to count
+    # a machine of this memory takes the survey whole; one of a thousandth of it, block by block
+    monkeypatch.setattr(ingest.catalog, "WHOLE_BYTES_PER_POINT", 10**9)
+    db = tmp_path / "t.tdb"
+    r = CliRunner().invoke(main, ["ingest", str(scene_file), "--db", str(db), "--version", "v"])
+    assert r.exit_code == 0, r.output
+    assert "block by block" in r.output
+    with tdb.open(db) as d:
+        assert d.version("v").params["blocks"] >= 1
+        assert d.version("v").stats.points == points
+
+
 def test_blocks_need_metres(scene_file, tmp_path):
     import dataclasses
 

@@ -39,9 +39,10 @@ def _summary(points: int, bounds: tuple[float, float, float, float] | None, seco
     "--block",
     type=float,
     help="Ingest block by block, blocks of this many metres (a multiple of 16), in parallel: for surveys "
-    "too large to model whole. A directory or a glob of tiles is always ingested so [default: 512].",
+    "too large to model whole. A directory or a glob of tiles is always ingested so, and a file whose "
+    "header counts more points than half this machine's memory holds in a whole ingest [default: 512].",
 )
-@click.option("--workers", type=int, help="Processes for a blocked ingest [default: one per core].")
+@click.option("--workers", type=int, help="Ingest block by block in this many processes [default: one per core].")
 @click.option(
     "--scheduler",
     help="Model the blocks on a dask.distributed cluster: its scheduler's address (tcp://host:8786). "
@@ -112,7 +113,7 @@ def command(
     """
     import tdb
     from ingest.blocked import BLOCK, Blocking, ingest_blocked
-    from ingest.catalog import is_catalog
+    from ingest.catalog import is_catalog, too_large_to_model_whole
     from ingest.pipeline import IngestOptions, ingest
     from tdb.cli.progress import Bars
 
@@ -127,7 +128,11 @@ def command(
         objects=not no_objects,
     )
     started = time.perf_counter()
-    blocked = resume or block is not None or scheduler is not None or bbox is not None or is_catalog(cloud)
+    asked = (resume, block is not None, workers is not None, scheduler is not None, bbox is not None)
+    blocked = any(asked) or is_catalog(cloud)
+    if not blocked and too_large_to_model_whole(cloud):
+        blocked = True
+        click.echo(f"note: {cloud} is too large to model whole in this machine's memory: block by block", err=True)
     with tdb.open(db_path, create=True) as db, Bars(unit="step") as bars:
         if blocked:
             blocking = Blocking(
