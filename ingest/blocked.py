@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ingest.block_size import block_side
 from ingest.block_totals import BlockResult, Totals
 from ingest.catalog import Box, Catalog, is_catalog, open_catalog, overlaps
 from ingest.ground import classify_ground
@@ -73,19 +74,19 @@ from tdb.tiles import LEVELS, SUBGRID, tile_key
 from tdb.units import to_metres, units_of
 from tdb.version_writer import VersionWriter
 
-BLOCK = 512.0  # m: side of a block; a multiple of the coarsest tile (16 m)
 BUFFER = 64.0  # m: see the module's description
 CHUNK = 2_000_000  # points decoded at a time
 
 
 @dataclass(frozen=True)
 class Blocking:
-    """How a survey is cut: blocks of ``block`` m with ``buffer`` m of their neighbours' points,
+    """How a survey is cut: blocks of ``block`` m (None: as large as a worker models within its
+    memory at the survey's density, :mod:`ingest.block_size`) with ``buffer`` m of their neighbours' points,
     in ``workers`` processes (None: one per core), or on the workers of the dask.distributed
     ``scheduler`` at that address (``tcp://host:8786``): each block's points travel to a worker
     with its job, so the workers need tdb installed but no shared disk."""
 
-    block: float = BLOCK
+    block: float | None = None
     buffer: float = BUFFER
     workers: int | None = None
     scheduler: str | None = None
@@ -95,7 +96,7 @@ class Blocking:
         coarsest = max(LEVELS)
         if self.region is not None:
             check_bbox(self.region)
-        if self.block <= 0 or self.block % coarsest:
+        if self.block is not None and (self.block <= 0 or self.block % coarsest):
             raise InputError(f"a block's side must be a positive multiple of {coarsest} m, got {self.block}")
         if self.buffer < 0:
             raise InputError(f"a block's buffer cannot be negative, got {self.buffer}")
@@ -149,6 +150,8 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     catalog = open_catalog(source if is_catalog(source) else [Path(str(source))])
     crs = as_crs(o.crs) if o.crs is not None else catalog.crs
     _check_metric(crs)
+    if b.block is None:
+        b = dataclasses.replace(b, block=block_side(_densest(catalog), buffer=b.buffer))
     area = _area(catalog.bounds, b.region)
     blocks = _blocks(area, b, survey=catalog.bounds)
     spool = Spool.beside(db, version)
@@ -178,6 +181,16 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
         warnings.warn(f"{catalog.files[0].path}: {SINGLE_RETURNS}", TdbWarning, stacklevel=2)
     spool.remove()
     return db.version(version)
+
+
+def _densest(catalog: Catalog) -> float:
+    """Points per m² of the densest file by its header (a survey's bounds hold gaps between tiles)."""
+    out = 0.0
+    for f in catalog.files:
+        x0, y0, x1, y1 = f.bounds
+        if x1 > x0 and y1 > y0:
+            out = max(out, f.points / ((x1 - x0) * (y1 - y0)))
+    return out
 
 
 def _run(catalog: Catalog, o: IngestOptions, b: Blocking) -> dict[str, Any]:
@@ -243,13 +256,15 @@ def _blocks(bounds: Box, b: Blocking, *, survey: Box | None = None) -> list[_Blo
     """The blocks over ``bounds``; with a region, cut to it (``bounds`` is then on the 16 m tiles).
     ``survey``: the whole survey's bounds (default ``bounds``)."""
     survey = survey or bounds
+    side = b.block
+    assert side is not None, "ingest_blocked sets the side from the survey's density"
     x0, y0, x1, y1 = bounds
-    xs = np.arange(np.floor(x0 / b.block) * b.block, x1 + 1e-9, b.block)
-    ys = np.arange(np.floor(y0 / b.block) * b.block, y1 + 1e-9, b.block)
+    xs = np.arange(np.floor(x0 / side) * side, x1 + 1e-9, side)
+    ys = np.arange(np.floor(y0 / side) * side, y1 + 1e-9, side)
     out = []
     for bx in xs:
         for by in ys:
-            core = (float(bx), float(by), float(bx + b.block), float(by + b.block))
+            core = (float(bx), float(by), float(bx + side), float(by + side))
             if b.region is not None:
                 core = (max(core[0], x0), max(core[1], y0), min(core[2], x1), min(core[3], y1))
             grown = _grown(core, b.buffer)

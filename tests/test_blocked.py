@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import tdb
 from ingest.blocked import Blocking, ingest_blocked
@@ -145,6 +147,34 @@ def test_a_file_too_large_to_model_whole_goes_block_by_block(scene_file, tmp_pat
     with tdb.open(db) as d:
         assert d.version("v").params["blocks"] >= 1
         assert d.version("v").stats.points == points
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.floats(0.0, 200.0), st.floats(0.0, 200.0), st.sampled_from([0.0, 32.0, 64.0, 128.0]))
+def test_denser_surveys_get_smaller_blocks_on_the_tile_lattice(d1, d2, buffer):
+    from ingest.block_size import MAX_BLOCK, MIN_BLOCK, block_side
+
+    lo, hi = sorted((d1, d2))
+    a, b = block_side(lo, buffer=buffer), block_side(hi, buffer=buffer)
+    assert MIN_BLOCK <= b <= a <= MAX_BLOCK
+    assert a % max(LEVELS) == 0 and b % max(LEVELS) == 0
+
+
+def test_a_dense_survey_is_cut_into_blocks_a_worker_can_hold(scene_file, tmp_path, monkeypatch):
+    """Without a side given, the blocks are as large as a worker's memory allows at the survey's
+    density: here, a worker of a tenth of the memory gets a 200 m survey in several blocks."""
+    import ingest.block_size
+    from ingest.block_size import MAX_BLOCK, block_side
+
+    density = open_catalog([scene_file]).points / 200.0**2
+    assert block_side(density, buffer=64.0) == MAX_BLOCK  # a sparse survey: the largest blocks
+    monkeypatch.setattr(ingest.block_size, "WORKER_MEMORY", 0.1 * ingest.block_size.WORKER_MEMORY)
+    side = block_side(density, buffer=64.0)
+    assert side < 200.0
+    db = tdb.open(tmp_path / "d.tdb", create=True)
+    v = ingest_blocked(scene_file, db, version="v", blocking=Blocking(workers=1))
+    assert v.params["blocks"] >= (200.0 // side) ** 2 > 1
+    assert v.stats.points == open_catalog([scene_file]).points
 
 
 def test_blocks_need_metres(scene_file, tmp_path):

@@ -40,7 +40,8 @@ def _summary(points: int, bounds: tuple[float, float, float, float] | None, seco
     type=float,
     help="Ingest block by block, blocks of this many metres (a multiple of 16), in parallel: for surveys "
     "too large to model whole. A directory or a glob of tiles is always ingested so, and a file whose "
-    "header counts more points than half this machine's memory holds in a whole ingest [default: 512].",
+    "header counts more points than half this machine's memory holds in a whole ingest [default: the "
+    "largest a worker models in 1.5 GB at the survey's density, at most 512].",
 )
 @click.option("--workers", type=int, help="Ingest block by block in this many processes [default: one per core].")
 @click.option(
@@ -112,7 +113,7 @@ def command(
       tdb ingest county.copc.laz --db town.tdb --version 2024 --bbox 500000,5500000,501000,5501000
     """
     import tdb
-    from ingest.blocked import BLOCK, Blocking, ingest_blocked
+    from ingest.blocked import Blocking, ingest_blocked
     from ingest.catalog import is_catalog, too_large_to_model_whole
     from ingest.pipeline import IngestOptions, ingest
     from tdb.cli.progress import Bars
@@ -135,9 +136,7 @@ def command(
         click.echo(f"note: {cloud} is too large to model whole in this machine's memory: block by block", err=True)
     with tdb.open(db_path, create=True) as db, Bars(unit="step") as bars:
         if blocked:
-            blocking = Blocking(
-                block=BLOCK if block is None else block, workers=workers, scheduler=scheduler, region=bbox
-            )
+            blocking = Blocking(block=block, workers=workers, scheduler=scheduler, region=bbox)
             v = ingest_blocked(
                 str(cloud),
                 db,
