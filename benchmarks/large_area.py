@@ -7,6 +7,9 @@ child process, as ``tdb ingest DIR --workers 2`` does, and reports its own peak 
 scatter and store) and the largest of its workers'.
 
     python -m benchmarks.large_area [--tiles 10x5] [--density 2] [--dir /tmp/tdb-large]
+
+Results go to ``large_area.json`` for the defaults, else ``large_area_NXxNY_dDENSITY.json``: a
+denser survey shows that the blocks shrink to keep each worker's memory (:mod:`ingest.block_size`).
 """
 
 from __future__ import annotations
@@ -100,7 +103,8 @@ def main() -> None:
         "file_mib": db_path.stat().st_size / 2**20,
     }
     print(json.dumps(doc, indent=1))
-    print(save("large_area", doc))
+    default = (nx, ny, a.density) == (10, 5, 2.0)
+    print(save("large_area" if default else f"large_area_{nx}x{ny}_d{a.density:g}", doc))
 
 
 if __name__ == "__main__":
