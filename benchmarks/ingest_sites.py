@@ -30,7 +30,9 @@ DEM_CELL = 0.5  # m: the dense model's post spacing in tdb
 
 
 def _run(kind: str, src: str, db_path: str) -> None:
-    """One run in this process; prints its seconds, the survey's points and extent, and peak memory."""
+    """One run in this process; prints its seconds, the survey's points and extent (from the
+    file's header), and peak memory."""
+    from ingest.catalog import open_catalog
     from ingest.readers import read
 
     t0 = time.perf_counter()
@@ -44,14 +46,14 @@ def _run(kind: str, src: str, db_path: str) -> None:
         if kind == "pysmrf":
             _pysmrf(cloud.xyz)
     seconds = time.perf_counter() - t0
-    cloud = read(src)
-    b = cloud.bounds
+    header = open_catalog([src])
+    x0, y0, x1, y1 = header.bounds
     print(
         json.dumps(
             {
                 "seconds": seconds,
-                "points": len(cloud.xyz),
-                "km2": (b[3] - b[0]) * (b[4] - b[1]) / 1e6,
+                "points": header.points,
+                "km2": (x1 - x0) * (y1 - y0) / 1e6,
                 "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
             }
         )

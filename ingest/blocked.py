@@ -151,7 +151,7 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
     crs = as_crs(o.crs) if o.crs is not None else catalog.crs
     _check_metric(crs)
     if b.block is None:
-        b = dataclasses.replace(b, block=block_side(_densest(catalog), buffer=b.buffer))
+        b = dataclasses.replace(b, block=block_side(catalog.densest, buffer=b.buffer))
     area = _area(catalog.bounds, b.region)
     blocks = _blocks(area, b, survey=catalog.bounds)
     spool = Spool.beside(db, version)
@@ -181,16 +181,6 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
         warnings.warn(f"{catalog.files[0].path}: {SINGLE_RETURNS}", TdbWarning, stacklevel=2)
     spool.remove()
     return db.version(version)
-
-
-def _densest(catalog: Catalog) -> float:
-    """Points per m² of the densest file by its header (a survey's bounds hold gaps between tiles)."""
-    out = 0.0
-    for f in catalog.files:
-        x0, y0, x1, y1 = f.bounds
-        if x1 > x0 and y1 > y0:
-            out = max(out, f.points / ((x1 - x0) * (y1 - y0)))
-    return out
 
 
 def _run(catalog: Catalog, o: IngestOptions, b: Blocking) -> dict[str, Any]:

@@ -51,6 +51,16 @@ class Catalog:
     def points(self) -> int:
         return sum(f.points for f in self.files)
 
+    @property
+    def densest(self) -> float:
+        """Points per m² of the densest tile by its header (a survey's bounds hold gaps between tiles)."""
+        out = 0.0
+        for f in self.files:
+            x0, y0, x1, y1 = f.bounds
+            if x1 > x0 and y1 > y0:
+                out = max(out, f.points / ((x1 - x0) * (y1 - y0)))
+        return out
+
     def read(self, box: Box) -> PointCloud:
         """The points of every tile inside ``box`` (edges included), merged."""
         parts = [rec for f in self.files if overlaps(f.bounds, box) for rec in iter_records(f.path, box=box)]

@@ -14,6 +14,7 @@ import os
 import sqlite3
 from dataclasses import dataclass
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from sqlalchemy.exc import SQLAlchemyError
 
@@ -101,4 +102,5 @@ def _file(db: Database) -> Path | None:
     if db.engine.dialect.name != "sqlite" or not db.engine.url.database:
         return None
     name = db.engine.url.database
-    return Path(name[len("file:") :].split("?")[0]) if name.startswith("file:") else Path(name)
+    # a file opened read only on read-only media is named by its URI (tdb.open)
+    return Path(urlsplit(name).path) if name.startswith("file:") else Path(name)
