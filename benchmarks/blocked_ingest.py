@@ -11,7 +11,6 @@ whole run's, which isolates what blocking itself changes.
 from __future__ import annotations
 
 import json
-import resource
 import tempfile
 import time
 from pathlib import Path
@@ -21,6 +20,7 @@ import numpy as np
 
 import tdb
 from benchmarks.common import DATA, file_run_args, run_child, save
+from tdb.memory import peak_mib
 from tdb.tiles import LEVELS
 
 
@@ -32,6 +32,7 @@ def _run(kind: str, src: str, db_path: str, block: float, threshold: float | Non
     db = tdb.open(db_path, create=True)
     options = IngestOptions(flat_threshold=threshold)
     t0 = time.perf_counter()
+    told = None
     if kind == "whole":
         ingest(src, db, version=kind, options=options)
     elif kind == "read":
@@ -40,11 +41,12 @@ def _run(kind: str, src: str, db_path: str, block: float, threshold: float | Non
         read(src)
     else:
         workers = 1 if kind == "blocks_one_worker" else None  # None: one per core
-        ingest_blocked(src, db, version=kind, options=options, blocking=Blocking(block=block, workers=workers))
+        v = ingest_blocked(src, db, version=kind, options=options, blocking=Blocking(block=block, workers=workers))
+        told = v.params.get("worker_peak_mib")  # the workers' own figure: they are not this process's children
     seconds = time.perf_counter() - t0
-    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    workers = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-    print(json.dumps({"seconds": seconds, "peak_rss_mib": own, "worker_peak_rss_mib": workers}))
+    own = peak_mib()
+    worker_mib = told or peak_mib(children=True)
+    print(json.dumps({"seconds": seconds, "peak_rss_mib": own, "worker_peak_rss_mib": worker_mib}))
 
 
 def _same(db: Any, a: str, b: str, level: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import json
 import platform
-import resource
 import subprocess
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+from tdb.memory import peak_mib
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
@@ -59,7 +60,7 @@ def run_child(module: str, *args: str) -> dict[str, Any]:
 
 def peak_rss_mib() -> float:
     """Peak resident memory of this process so far (MiB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return peak_mib()
 
 
 def save(name: str, doc: dict[str, Any], *, path: Path | None = None) -> Path:

@@ -29,9 +29,8 @@ def one(method: str, site: str) -> dict[str, float]:
     t0 = time.perf_counter()
     methods()[method](cloud.xyz)
     dt = time.perf_counter() - t0
-    import resource
-
     from ingest.ground.tiling import available_cores
+    from tdb.memory import peak_mib
 
     return {
         "points": len(cloud),
@@ -40,7 +39,7 @@ def one(method: str, site: str) -> dict[str, float]:
         "peak_rss_mib": peak_rss_mib(),
         "rss_after_read_mib": base,
         # Sohn–Dowman filters its tiles in worker processes, one per core: the largest worker's peak
-        "worker_peak_rss_mib": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024,
+        "worker_peak_rss_mib": peak_mib(children=True),
         "cores": available_cores(),
     }
 

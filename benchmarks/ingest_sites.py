@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import resource
 import sys
 import tempfile
 import time
@@ -23,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks.common import DATA, run_child, save
+from tdb.memory import peak_mib
 
 SITES = ("CSite1_red1", "CSite2_orig", "FSite5_orig", "FSite6_orig")
 KINDS = ("read", "ingest", "pysmrf")
@@ -54,7 +54,7 @@ def _run(kind: str, src: str, db_path: str) -> None:
                 "seconds": seconds,
                 "points": header.points,
                 "km2": (x1 - x0) * (y1 - y0) / 1e6,
-                "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                "peak_rss_mib": peak_mib(),
             }
         )
     )

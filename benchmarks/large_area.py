@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import resource
 import subprocess
 import sys
 import time
@@ -25,6 +24,7 @@ from pathlib import Path
 import tdb
 from benchmarks.common import save
 from ingest.synth import make_scene, write_scene
+from tdb.memory import peak_mib
 
 TILE = 1000.0  # m
 ORIGIN = (600_000.0, 5_000_000.0)
@@ -54,8 +54,8 @@ def _run(folder: str, db_path: str, workers: int) -> None:
     t0 = time.perf_counter()
     v = ingest_blocked(folder, db, version="large", blocking=Blocking(workers=workers))
     seconds = time.perf_counter() - t0
-    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    own = peak_mib()
+    children = v.params.get("worker_peak_mib") or peak_mib(children=True)  # as the workers told it
     b = v.stats.bounds or (0.0, 0.0, 0.0, 0.0)
     print(
         json.dumps(

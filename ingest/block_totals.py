@@ -37,6 +37,7 @@ class BlockResult:
     trees: list[Tree]
     buildings: list[Building]
     echo_test: bool  # whether the block's returns told double echoes apart (see ingest.objects)
+    peak_mib: float = 0.0  # the peak memory of the process that modelled it, when it was done
 
 
 @dataclass
@@ -62,6 +63,7 @@ class Totals:
     deep: int = 0
     sigma_mm: NDArray[np.int64] = field(default_factory=lambda: np.zeros(SIGMA_BINS + 1, np.int64))
     echo_test: bool = False
+    peak_mib: float = 0.0  # the largest of the blocks' modelling processes
 
     def add(self, r: BlockResult) -> None:
         red = r.reduction
@@ -88,6 +90,7 @@ class Totals:
         mm = np.minimum(np.round(r.evidence.sigma * 1000), SIGMA_BINS).astype(np.int64)
         self.sigma_mm += np.bincount(mm, minlength=SIGMA_BINS + 1)
         self.echo_test |= r.echo_test
+        self.peak_mib = max(self.peak_mib, r.peak_mib)
 
     @property
     def flat_threshold(self) -> float:

@@ -34,13 +34,15 @@ import dataclasses
 import itertools
 import os
 import tempfile
+import threading
 import warnings
 from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from multiprocessing import get_context
+from multiprocessing import get_all_start_methods, get_context
+from multiprocessing.context import BaseContext
 from pathlib import Path
 from typing import Any
 
@@ -66,6 +68,7 @@ from tdb.classes import excluded
 from tdb.crs import as_crs
 from tdb.database import Database, Version, VersionInfo, check_version_name
 from tdb.errors import CRSError, InputError, Remedy, TdbIOError, TdbWarning, VersionExistsError
+from tdb.memory import peak_mib
 from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
@@ -358,15 +361,25 @@ def _pool(b: Blocking, blocks: int) -> Iterator[Any]:
     if workers <= 1:
         yield None
         return
-    # spawn: a forked child would inherit the parent's threads and locks
-    with ProcessPoolExecutor(workers, mp_context=get_context("spawn"), initializer=_worker_start) as pool:
-        for _ in range(workers):  # one process is spawned per task while none is idle
-            pool.submit(int)
+    # A child forked from this process would inherit its threads and locks. The fork server is a
+    # fresh process that loads the block's modules once; each worker forks from it ready to work.
+    # Where there is none (Windows), each worker starts afresh and loads them itself.
+    context: BaseContext = get_context("spawn")
+    if "forkserver" in get_all_start_methods():
+        context = get_context("forkserver")
+        context.set_forkserver_preload([__name__])
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start) as pool:
+        # One process is spawned per task while none is idle. Each waits for the server to load
+        # the modules, so they are asked for from a thread while this one reads the input.
+        starter = threading.Thread(target=lambda: [pool.submit(int) for _ in range(workers)], daemon=True)
+        starter.start()
         try:
             yield pool
         except BaseException:
             pool.shutdown(wait=False, cancel_futures=True)  # a failed run does not model the rest
             raise
+        finally:
+            starter.join()
 
 
 def _worker_start() -> None:
@@ -418,7 +431,7 @@ def _model(
     elif pool is not None:
         results = (f.result() for f in as_completed([pool.submit(_one_block_args, job) for job in jobs]))
     else:
-        results = map(_one_block_args, jobs)
+        results = map(_one_block_here, jobs)
     for k, r in results:
         keep(k, r)
         report.finished(k)
@@ -495,6 +508,11 @@ def _pilot_threshold(
     return pilot_threshold(cloud.xyz[ground], square)
 
 
+def _one_block_here(job: Job) -> tuple[int, BlockResult | None]:
+    k, blk, path, o, crs = job
+    return k, _one_block(blk, np.fromfile(path, RECORD), o, crs, str(path))
+
+
 def _one_block_args(job: Job) -> tuple[int, BlockResult | None]:
     k, blk, path, o, crs = job
     return _one_block_at(k, blk, np.fromfile(path, RECORD), o, crs, str(path))
@@ -503,9 +521,11 @@ def _one_block_args(job: Job) -> tuple[int, BlockResult | None]:
 def _one_block_at(
     k: int, blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str
 ) -> tuple[int, BlockResult | None]:
-    """A block modelled on a cluster's worker, whose allocator is first let keep freed memory."""
+    """A block modelled in a worker process (a local pool's or a cluster's), whose allocator is
+    first let keep freed memory; its result carries the worker's peak memory so far."""
     keep_freed_memory()
-    return k, _one_block(blk, rec, o, crs, source)
+    r = _one_block(blk, rec, o, crs, source)
+    return k, None if r is None else dataclasses.replace(r, peak_mib=round(peak_mib(), 1))
 
 
 def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str) -> BlockResult | None:
@@ -623,6 +643,8 @@ class _Store:
             "blocks": t.blocks,
             "finest_level": min(t.tiles),
         }
+        if t.peak_mib:  # modelled in worker processes
+            params["worker_peak_mib"] = t.peak_mib
         self.writer.describe(params=params, stats=t.stats(bounds).to_json())
 
 

@@ -36,6 +36,9 @@ def test_blocks_give_the_one_piece_model(scene_file, tmp_path):
     blocks = ingest_blocked(scene_file, db, version="blocks", blocking=Blocking(block=96, buffer=64, workers=2))
     # measured on the same square of the same lattice, however the survey is cut
     assert blocks.params["flat_threshold"] == whole.params["flat_threshold"]
+    # the workers' own peak memory: they are the fork server's children, not this process's
+    assert 50 < blocks.params["worker_peak_mib"] < 4000
+    assert "worker_peak_mib" not in whole.params
     for level in LEVELS:
         a, b = _codes(db, "whole", level), _codes(db, "blocks", level)
         assert set(a) == set(b), level  # every tile, once
@@ -120,6 +123,7 @@ def test_the_command_line_ingests_a_directory_of_tiles(scene_file, tmp_path):
     with tdb.open(db) as d:
         assert d.version("v").stats.points == len(cloud)
         assert d.version("v").params["blocks"] >= 1
+        assert "worker_peak_mib" not in d.version("v").params  # modelled in this process
 
 
 def test_a_file_too_large_to_model_whole_goes_block_by_block(scene_file, tmp_path, monkeypatch):
@@ -146,6 +150,7 @@ def test_a_file_too_large_to_model_whole_goes_block_by_block(scene_file, tmp_pat
     assert "block by block" in r.output
     with tdb.open(db) as d:
         assert d.version("v").params["blocks"] >= 1
+        assert "worker_peak_mib" not in d.version("v").params  # modelled in this process
         assert d.version("v").stats.points == points
 
 

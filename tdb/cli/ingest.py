@@ -21,12 +21,15 @@ def _date(_ctx: click.Context, _param: click.Parameter, value: str | None) -> dt
         raise click.BadParameter(f"{value!r} is not a date like 2024-05-31") from None
 
 
-def _summary(points: int, bounds: tuple[float, float, float, float] | None, seconds: float) -> str:
-    """Points, area, time and peak memory (this process's, and the largest worker's) of an ingest."""
-    import resource
+def _summary(
+    points: int, bounds: tuple[float, float, float, float] | None, seconds: float, *, worker_mib: float | None
+) -> str:
+    """Points, area, time and peak memory (this process's, and the largest worker's: as the
+    workers told it, ``worker_mib``, else of the child processes waited for) of an ingest."""
+    from tdb.memory import peak_mib
 
-    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    workers = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    own = peak_mib()
+    workers = worker_mib or peak_mib(children=True)
     km2 = (bounds[2] - bounds[0]) * (bounds[3] - bounds[1]) / 1e6 if bounds else 0.0
     memory = f"peak memory {own:,.0f} MiB" + (f", {workers:,.0f} MiB per worker" if workers else "")
     rate = points / max(seconds, 1e-9)
@@ -151,7 +154,8 @@ def command(
         else:
             v = ingest(cloud, db, version=version, acquired=date, replace=replace, options=options, progress=bars)
     r = v.stats.reduction
-    click.echo(_summary(v.stats.points, v.stats.bounds, time.perf_counter() - started))
+    seconds = time.perf_counter() - started
+    click.echo(_summary(v.stats.points, v.stats.bounds, seconds, worker_mib=v.params.get("worker_peak_mib")))
     click.echo(
         f"version {v.name!r} in {db_path}: {r.tiles.get(2, 0):,} tiles of 2 m, {r.kept_points:,} points kept "
         f"of {r.dense_posts:,} posts ({r.reduction_pct} % removed, RMSE {r.rmse_m} m)"

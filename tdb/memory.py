@@ -1,0 +1,14 @@
+"""Peak memory of a process, as the operating system counts it."""
+
+from __future__ import annotations
+
+import resource
+import sys
+
+
+def peak_mib(*, children: bool = False) -> float:
+    """The largest resident set this process has held, in MiB (with ``children``: the largest
+    of its children that have ended and been waited for)."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN if children else resource.RUSAGE_SELF)
+    # Linux counts ru_maxrss in KiB, macOS in bytes
+    return usage.ru_maxrss / (2**20 if sys.platform == "darwin" else 2**10)
