@@ -41,8 +41,7 @@ CREATE TABLE buildings (
 	footprint BLOB NOT NULL, 
 	PRIMARY KEY (version, bx, "by", x, y), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
-)
- WITHOUT ROWID;
+);
 
 CREATE TABLE c16 (
 	version INTEGER NOT NULL, 
@@ -101,8 +100,7 @@ CREATE TABLE evidence_blocks (
 	data BLOB NOT NULL, 
 	PRIMARY KEY (version, bx, "by"), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
-)
- WITHOUT ROWID;
+);
 
 CREATE TABLE point_blocks (
 	version INTEGER NOT NULL, 
@@ -111,8 +109,7 @@ CREATE TABLE point_blocks (
 	data BLOB NOT NULL, 
 	PRIMARY KEY (version, bx, "by"), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
-)
- WITHOUT ROWID;
+);
 
 CREATE TABLE tdb (
 	version INTEGER NOT NULL, 
@@ -133,8 +130,7 @@ CREATE TABLE tile_blocks (
 	codes BLOB NOT NULL, 
 	PRIMARY KEY (version, level, bx, "by"), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
-)
- WITHOUT ROWID;
+);
 
 CREATE TABLE trees (
 	version INTEGER NOT NULL, 
@@ -147,5 +143,4 @@ CREATE TABLE trees (
 	crown BLOB NOT NULL, 
 	PRIMARY KEY (version, bx, "by", x, y), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
-)
- WITHOUT ROWID;
+);

@@ -4,8 +4,11 @@ SQLite puts a new page wherever its file has one free. An ingest writes tiles, p
 and objects block by block, so the tables interleave through the file, and a deleted version
 leaves its pages free inside it (the file never shrinks by itself). Where the file is larger than
 the system's cache, an area read then seeks once per page it needs. Rewritten, each table and
-index lies in key order, so that an area's rows come in a few runs of the file. PostgreSQL
-rewrites tdb's tables in full and refreshes the planner's statistics.
+index lies in key order, so that an area's rows come in a few runs of the file: the tables of
+BLOBs (:data:`tdb.schema.BLOB_TABLES`, rowid tables whose rows lie in the order they were
+written) are first copied afresh in key order, in the current layout (a database made before
+they were rowid tables gets it now), and the file is then rewritten. PostgreSQL rewrites tdb's
+tables in full and refreshes the planner's statistics.
 """
 
 from __future__ import annotations
@@ -16,7 +19,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import urlsplit
 
+from sqlalchemy import Connection, Table
+from sqlalchemy.dialects.sqlite import dialect as sqlite_dialect
 from sqlalchemy.exc import SQLAlchemyError
+from sqlalchemy.schema import CreateTable
 
 from tdb import schema
 from tdb.atomic import atomic_path
@@ -38,9 +44,10 @@ def compact(db: Database, *, into: str | os.PathLike[str] | None = None) -> Comp
     """Rewrite ``db`` compact, in place, or into a new file ``into`` (SQLite only), leaving ``db``
     as it is.
 
-    In place, SQLite needs free disk for about twice the file while it works (a copy, and the
-    journal that makes the rewrite all or nothing); into a new file, for one copy. An
-    interruption leaves ``db`` as it was, and no part of ``into``.
+    In place, SQLite needs free disk for two to three times the file while it works (the tables
+    of BLOBs copied in key order inside it, then a copy of the whole and the journal that makes
+    the rewrite all or nothing); into a new file, for one copy. An interruption leaves ``db`` as
+    it was, and no part of ``into``.
 
     Raises
     ------
@@ -73,17 +80,69 @@ def compact(db: Database, *, into: str | os.PathLike[str] | None = None) -> Comp
 
 
 def _copy_into(file: Path, tmp: Path) -> None:
-    """VACUUM INTO through a connection of its own that only reads: a database opened read only
-    refuses it on its own connections, which refuse every write."""
-    con = sqlite3.connect(f"{file.resolve().as_uri()}?mode=ro", uri=True)
+    """The tables copied into a new file ``tmp``, each in key order, through a connection that
+    only reads ``file``: a database opened read only refuses writes on its own connections."""
+    con = sqlite3.connect(str(tmp))
     try:
-        con.execute("VACUUM INTO ?", (str(tmp),))
+        con.execute("ATTACH DATABASE ? AS source", (f"{file.resolve().as_uri()}?mode=ro",))
+        with con:  # one transaction
+            for name, sql in con.execute(
+                "SELECT name, sql FROM source.sqlite_master WHERE type = 'table' AND name NOT LIKE 'sqlite_%'"
+            ).fetchall():
+                table = schema.metadata.tables.get(name)
+                if table is None:  # not tdb's: as it is
+                    con.execute(sql)
+                    con.execute(f'INSERT INTO main."{name}" SELECT * FROM source."{name}"')
+                    continue
+                con.execute(_create(table, name))
+                columns = ", ".join(f'"{c.name}"' for c in table.columns)
+                con.execute(
+                    f'INSERT INTO main."{name}" ({columns}) SELECT {columns} FROM source."{name}" '
+                    f"ORDER BY {_key(table)}"
+                )
+            for (sql,) in con.execute(
+                "SELECT sql FROM source.sqlite_master WHERE type = 'index' AND sql IS NOT NULL"
+            ).fetchall():
+                con.execute(sql)
+        con.execute("DETACH DATABASE source")
     finally:
         con.close()
 
 
+def _in_key_order(conn: Connection) -> None:
+    """Each table of BLOBs copied afresh in key order and in the current layout, in place of the old."""
+    present = set(conn.dialect.get_table_names(conn))
+    for table in schema.BLOB_TABLES:
+        if table.name not in present:
+            continue
+        new = f"{table.name}__compact"
+        columns = ", ".join(f'"{c.name}"' for c in table.columns)
+        conn.exec_driver_sql(_create(table, new))
+        conn.exec_driver_sql(
+            f'INSERT INTO "{new}" ({columns}) SELECT {columns} FROM "{table.name}" ORDER BY {_key(table)}'
+        )
+        conn.exec_driver_sql(f'DROP TABLE "{table.name}"')
+        conn.exec_driver_sql(f'ALTER TABLE "{new}" RENAME TO "{table.name}"')
+
+
+def _create(table: Table, name: str) -> str:
+    """The CREATE TABLE statement of ``table`` in tdb's current layout, named ``name``."""
+    sql = str(CreateTable(table).compile(dialect=sqlite_dialect())).strip()
+    head = f"CREATE TABLE {table.name} "
+    assert sql.startswith(head), sql
+    return f'CREATE TABLE "{name}" ' + sql[len(head) :]
+
+
+def _key(table: Table) -> str:
+    return ", ".join(f'"{c.name}"' for c in table.primary_key.columns)
+
+
 def _in_place(db: Database) -> None:
-    """VACUUM needs a connection outside any transaction."""
+    """The tables of BLOBs in key order (one transaction), then VACUUM, which needs a
+    connection outside any transaction."""
+    if db.engine.dialect.name == "sqlite":
+        with db.transaction() as conn:
+            _in_key_order(conn)
     with db.engine.connect().execution_options(isolation_level="AUTOCOMMIT") as conn:
         if db.engine.dialect.name == "sqlite":
             conn.exec_driver_sql("VACUUM")

@@ -119,3 +119,58 @@ def test_compact_into_a_new_file_leaves_the_database_as_it_is(park, tmp_path):
     r = _run("compact", "--db", park, "--into", copy)
     assert r.exit_code != 0 and "terrain database" in r.output and "Traceback" not in r.output
     assert sorted(p.name for p in copy.parent.iterdir()) == ["park-compact.tdb"]
+
+
+BLOB_TABLES = ("tile_blocks", "point_blocks", "evidence_blocks", "trees", "buildings")
+
+
+def _layout(path):
+    """Whether each table of BLOBs is a rowid table, and whether its rows lie in key order."""
+    con = sqlite3.connect(path)
+    try:
+        out = {}
+        for name in BLOB_TABLES:
+            sql = con.execute("SELECT sql FROM sqlite_master WHERE name = ?", (name,)).fetchone()[0]
+            keys = "version, level, bx, by" if name == "tile_blocks" else "version, bx, by"
+            if name in ("trees", "buildings"):
+                keys += ", x, y"
+            rowid = "WITHOUT ROWID" not in sql
+            by_rowid = con.execute(f"SELECT {keys} FROM {name} ORDER BY rowid").fetchall() if rowid else []
+            out[name] = (rowid, by_rowid == sorted(by_rowid))
+        return out
+    finally:
+        con.close()
+
+
+def _old_layout(path):
+    """The tables of BLOBs rebuilt as they were made before they were rowid tables."""
+    con = sqlite3.connect(path)
+    with con:
+        for name in BLOB_TABLES:
+            sql = con.execute("SELECT sql FROM sqlite_master WHERE name = ?", (name,)).fetchone()[0]
+            con.execute(sql.replace(f"CREATE TABLE {name}", f"CREATE TABLE {name}_old", 1) + " WITHOUT ROWID")
+            con.execute(f"INSERT INTO {name}_old SELECT * FROM {name} ORDER BY random()")
+            con.execute(f"DROP TABLE {name}")
+            con.execute(f"ALTER TABLE {name}_old RENAME TO {name}")
+    con.close()
+
+
+def test_compact_lays_the_tables_of_blobs_out_as_rowid_tables_in_key_order(park, tmp_path):
+    # a new database has the layout; its rows lie as they were written
+    assert all(rowid for rowid, _ in _layout(park).values())
+    before = {v: _area(park, v) for v in ("A", "B")}
+    trees = [(t.x, t.y, t.height) for t in tdb.open(park, readonly=True).trees("A")]
+    assert trees
+    _old_layout(park)
+    assert not any(rowid for rowid, _ in _layout(park).values())
+    copy = tmp_path / "copy.tdb"
+    assert _run("compact", "--db", park, "--into", copy).exit_code == 0
+    assert _run("compact", "--db", park).exit_code == 0
+    for path in (park, copy):
+        assert _layout(path) == dict.fromkeys(BLOB_TABLES, (True, True)), path
+        for v in ("A", "B"):
+            for old, new in zip(before[v], _area(path, v)):
+                np.testing.assert_array_equal(old, new)
+        with tdb.open(path, readonly=True) as db:
+            assert sorted((t.x, t.y, t.height) for t in db.trees("A")) == sorted(trees)
+        assert json.loads(_run("check", path, "--json").output)["ok"]
