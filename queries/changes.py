@@ -8,8 +8,9 @@ the tile's 3 × 3 nodes; LoD = 1.96 × √(σ₁² + σ₂²) from the two surve
 ground noise and reduction errors, at least 0.1 m. Changed tiles then grow over
 neighbours whose category stayed the same but whose surface moved as well.
 Changed tiles that touch and moved the same way (rose or fell) form regions;
-each region is typed by the filters that match in one version and not the
-other.
+a region whose higher surface lies in a layer taken for ground (tdb.evidence)
+thicker than its LoD is dropped, and each other one is typed by the filters
+that match in one version and not the other.
 """
 
 from __future__ import annotations
@@ -84,6 +85,7 @@ class TileJudgement:
     lod: NDArray[np.float64]  # m: the level of detection
     seen: NDArray[np.bool_]  # both versions saw the tile's ground well enough
     depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface may stand above its ground
+    layer: NDArray[np.float64]  # (2, tiles) m: the layer each version's surface lies in (tdb.evidence)
 
 
 def tile_lod(
@@ -98,23 +100,24 @@ def tile_lod(
     variance = np.zeros(len(xg))
     seen = np.ones(len(xg), bool)
     depth = np.zeros((2, len(xg)))
+    layer = np.zeros((2, len(xg)))
     for side, name in enumerate((a, b)):
         evidence = db.evidence(name, bbox=bbox)
         if len(evidence) == 0:
             continue
         rmse = db.version(name).stats.reduction.rmse_m or 0.0
-        sigma2, support, depth[side] = _per_tile(evidence, xg, yg, level)
+        sigma2, support, depth[side], layer[side] = _per_tile(evidence, xg, yg, level)
         variance += np.nan_to_num(sigma2, nan=0.0) + rmse**2
         seen &= support >= MIN_SUPPORT
-    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth)
+    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth, layer)
 
 
 def _per_tile(
     evidence: TileEvidence, xg: NDArray[np.int64], yg: NDArray[np.int64], level: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Mean variance of the relief hidden in gaps, mean support and mean standing (how far the
-    surface may stand over the ground seen, 0 where nothing is held) of the 2 m tiles making up
-    each tile of ``level``. A tile's own lift stays out: a wall built or a bank lifts the tiles
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Mean variance of the relief hidden in gaps, mean support, mean standing (how far the
+    surface may stand over the ground seen, 0 where nothing is held) and mean layer of the 2 m
+    tiles making up each tile of ``level``. A tile's own lift stays out: a wall built or a bank lifts the tiles
     along its edges as vegetation does (the layer, the lift over an area, does not)."""
     k = level // EVIDENCE_LEVEL
     if k == 1:
@@ -127,7 +130,8 @@ def _per_tile(
     with np.errstate(invalid="ignore"):
         mean = np.nanmean(variance.reshape(len(xg), k * k), axis=1)
     per = (len(xg), k * k)
-    return mean, e.support.reshape(per).mean(axis=1), depth.reshape(per).mean(axis=1)
+    layer = np.nan_to_num(e.layer.astype(float)).reshape(per).mean(axis=1)
+    return mean, e.support.reshape(per).mean(axis=1), depth.reshape(per).mean(axis=1), layer
 
 
 def tile_nodes(xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> tuple[NDArray[np.float64], ...]:
@@ -365,6 +369,7 @@ def detect(
     grown, dz = _grow(tiles, valid, tested, dz, moved, np.concatenate(strong + weak), level)
     from_strong = np.isin(grown, np.concatenate(strong)) if strong else np.zeros(len(grown), bool)
     lods = tiles.lod[grown]
+    layers = tiles.judged.layer[:, grown]
     xg, yg = xg[grown], yg[grown]
     # A grown region is sure where it holds a strong seed, or where it is large and moved as a
     # whole by a strong change: a form removed from a steep slope changes few categories, so its
@@ -382,6 +387,8 @@ def detect(
     for (members, mean_dz, sure, region_lod), was, now in zip(regions, found[before], found[after]):
         if not sure and not _closed_form_changed(was, now, mean_dz):
             continue
+        if _under_a_layer(layers, members, mean_dz, region_lod):
+            continue
         x, y = xg[members], yg[members]
         geom = outline(x, y, dz[members], lods[members], mean_dz, level=level)
         compact = elongation(x.astype(float), y.astype(float), level=level) < LINE_ELONGATION
@@ -395,6 +402,15 @@ def detect(
         }
         out.append(feature(geom, props))
     return out
+
+
+def _under_a_layer(layers: NDArray[np.float64], members: NDArray[np.intp], mean_dz: float, lod: float) -> bool:
+    """Whether a region's higher surface (the later one where it rose, the earlier where it fell)
+    lies in a layer taken for ground thicker than the level of detection (the median of its
+    tiles', ``layers``: 2 × tiles). Under such a layer, vegetation's top, no return of that survey
+    reached the ground, and the layer's lift says only how rough its top is, not how far it
+    stands over the ground: the survey does not say where the ground was."""
+    return bool(np.median(layers[1 if mean_dz > 0 else 0, members]) > lod)
 
 
 def outline(

@@ -12,6 +12,7 @@ import tdb
 from ingest.dtm import dense_model
 from ingest.evidence import envelope_lift, layer_window, noise_lift, tile_depth, tile_evidence
 from ingest.pipeline import ingest
+from queries import changes
 from queries.changes import detect, tile_lod
 from tdb.cloud import from_arrays
 from tdb.evidence import GAP_SLOPE, MIN_SUPPORT, SUPPORT_SPACINGS, TileEvidence, supported_change
@@ -234,6 +235,7 @@ def test_vegetation_taken_for_ground_is_no_rise_but_a_platform_is(tmp_path, monk
     assert shrubs < 0.15 * 28 * 28
     # the case at hand: the filter kept the shrubs' top, and the surfaces alone report them
     monkeypatch.setattr(changes, "supported_change", lambda dz, depth: dz)
+    monkeypatch.setattr(changes, "_under_a_layer", lambda *_: False)
     uncut = _reported_in(db, *boxes)[1]
     assert uncut > 0.25 * 28 * 28 and uncut > 2 * shrubs
 
@@ -342,9 +344,14 @@ def test_an_understorey_is_no_rise_but_a_platform_is(tmp_path, monkeypatch):
     raised, stood = _reported_in(db, *boxes)
     assert raised > 0.9 * 24 * 24
     monkeypatch.setattr(TileEvidence, "standing", property(lambda e: np.nan_to_num(e.depth.astype(float))))
+    by_the_layer_alone = _reported_in(db, *boxes)
+    monkeypatch.setattr(changes, "_under_a_layer", lambda *_: False)
     uncut = _reported_in(db, *boxes)[1]
     assert uncut > 0.8 * 32 * 32
     assert stood < 0.5 * uncut
+    # a region whose later surface lies in a layer thicker than the LoD is no rise at all
+    assert by_the_layer_alone[1] < 0.1 * uncut
+    assert by_the_layer_alone[0] > 0.9 * 24 * 24
 
 
 @settings(max_examples=25, deadline=None)
