@@ -457,6 +457,7 @@ class Database:
         its figures say: tiles per level, kept points. Reads only."""
         integrity = "not checked (a server database)"
         free = None
+        old_layout: list[str] = []
         if self.engine.dialect.name == "sqlite":
             try:
                 with self.engine.connect() as conn:
@@ -465,6 +466,7 @@ class Database:
                 found = [str(exc.orig)]
             integrity = "ok" if found == ["ok"] else "damaged: " + "; ".join(found[:3])
             free = self._free_share()
+            old_layout = self._old_layout()
         checks = []
         try:
             for v in self.versions():
@@ -475,7 +477,21 @@ class Database:
                 checks.append(VersionCheck(v.name, points, tiles, ok))
         except (SADatabaseError, DatabaseError) as exc:
             integrity = f"damaged: {getattr(exc, 'orig', exc)}"
-        return DatabaseCheck(integrity, self.schema_version(), checks, free)
+        return DatabaseCheck(integrity, self.schema_version(), checks, free, old_layout)
+
+    def _old_layout(self) -> list[str]:
+        """The tables of BLOBs of an SQLite file made before they were rowid tables
+        (:data:`tdb.schema.BLOB_TABLES`), whose area reads fetch about three times the bytes."""
+        names = [t.name for t in schema.BLOB_TABLES]
+        try:
+            with self.engine.connect() as conn:
+                marks = ", ".join("?" * len(names))
+                rows = conn.exec_driver_sql(
+                    f"SELECT name, sql FROM sqlite_master WHERE type = 'table' AND name IN ({marks})", tuple(names)
+                ).fetchall()
+        except SADatabaseError:
+            return []
+        return sorted(str(name) for name, sql in rows if "WITHOUT ROWID" in str(sql).upper())
 
     def _free_share(self) -> float | None:
         """The share of an SQLite file's pages that are free (None where unreadable)."""
@@ -725,6 +741,7 @@ class DatabaseCheck:
     schema_version: int
     versions: list[VersionCheck]
     free_share: float | None = None  # of an SQLite file's pages, those free (a deleted version's)
+    old_layout: list[str] = field(default_factory=list)  # tables of BLOBs laid out as before (tdb.compact)
 
     @property
     def ok(self) -> bool:

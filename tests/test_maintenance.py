@@ -161,8 +161,12 @@ def test_compact_lays_the_tables_of_blobs_out_as_rowid_tables_in_key_order(park,
     before = {v: _area(park, v) for v in ("A", "B")}
     trees = [(t.x, t.y, t.height) for t in tdb.open(park, readonly=True).trees("A")]
     assert trees
+    assert json.loads(_run("check", park, "--json").output)["old_layout"] == []
     _old_layout(park)
     assert not any(rowid for rowid, _ in _layout(park).values())
+    report = _run("check", park)
+    assert report.exit_code == 0 and "older layout" in report.output and "tdb compact" in report.output
+    assert json.loads(_run("check", park, "--json").output)["old_layout"] == sorted(BLOB_TABLES)
     copy = tmp_path / "copy.tdb"
     assert _run("compact", "--db", park, "--into", copy).exit_code == 0
     assert _run("compact", "--db", park).exit_code == 0
@@ -173,4 +177,5 @@ def test_compact_lays_the_tables_of_blobs_out_as_rowid_tables_in_key_order(park,
                 np.testing.assert_array_equal(old, new)
         with tdb.open(path, readonly=True) as db:
             assert sorted((t.x, t.y, t.height) for t in db.trees("A")) == sorted(trees)
-        assert json.loads(_run("check", path, "--json").output)["ok"]
+        checked = json.loads(_run("check", path, "--json").output)
+        assert checked["ok"] and checked["old_layout"] == []
