@@ -52,8 +52,8 @@ def compact(db: Database, *, into: str | os.PathLike[str] | None = None) -> Comp
     Raises
     ------
     InputError
-        If ``into`` is given for a server database, or ``db`` is open read only and no ``into``
-        is given.
+        If ``into`` is given for a server database or a database of an older schema, or ``db``
+        is open read only and no ``into`` is given.
     TdbIOError
         If ``into`` cannot be written (among others: it is a terrain database already).
     DatabaseError
@@ -62,6 +62,10 @@ def compact(db: Database, *, into: str | os.PathLike[str] | None = None) -> Comp
     file = _file(db)
     if into is not None and file is None:
         raise InputError(f"{db.name}: a server database is rewritten in place, not into a file")
+    if into is not None and db.schema_version() < schema.SCHEMA_VERSION:
+        # its tables are copied in the current layout, which an older schema's do not fit
+        found = db.schema_version()
+        raise InputError(f"{db.name}: schema version {found}; open it writable once to upgrade it first")
     if into is None and db.readonly:
         raise InputError(f"{db.name}: opened read only; it can be rewritten into a new file only")
     before = file.stat().st_size if file is not None else None

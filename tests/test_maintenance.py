@@ -179,3 +179,13 @@ def test_compact_lays_the_tables_of_blobs_out_as_rowid_tables_in_key_order(park,
             assert sorted((t.x, t.y, t.height) for t in db.trees("A")) == sorted(trees)
         checked = json.loads(_run("check", path, "--json").output)
         assert checked["ok"] and checked["old_layout"] == []
+
+
+def test_a_database_of_an_older_schema_is_upgraded_before_it_is_copied_compact(park, tmp_path):
+    con = sqlite3.connect(park)
+    with con:
+        con.execute("UPDATE meta SET value = '5' WHERE key = 'schema_version'")
+    con.close()
+    r = _run("compact", "--db", park, "--into", tmp_path / "copy.tdb")
+    assert r.exit_code != 0 and "upgrade" in r.output and "Traceback" not in r.output
+    assert not (tmp_path / "copy.tdb").exists()
