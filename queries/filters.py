@@ -77,6 +77,7 @@ class Filter:
     max_shoulder: float | None = None
     broad_width: float | None = None  # queries.profile: at least this wide is broad, whatever the shoulder
     max_spread: float | None = None  # queries.match: relief twice as far off, over the relief, at most this
+    max_trend: float | None = None  # queries.profile: the measure's change along a line, over itself, at most
     around: bool = False  # queries.relief: the extreme stands out all round (mound, pit), not across a line
     facing: bool = False  # queries.facing: plane tiles facing each other across an edge join as well
 

@@ -18,7 +18,7 @@ from queries.filters import (
     components,
     tile_lines,
 )
-from queries.profile import Nodes, form_width
+from queries.profile import MIN_TREND_PIECES, PIECE, Nodes, form_width, height_trend, stretches
 from queries.relief import tile_relief, two_sided_relief
 from queries.shoulder import shoulders
 from tdb.database import Database
@@ -127,15 +127,32 @@ def match_tiles(  # noqa: PLR0913 (the tiles' three arrays, their lattice and th
     if _line_with_sides(flt) and (flt.min_shoulder is not None or flt.max_shoulder is not None):
         shoulder = shoulders(lattice, geoms, np.array([m for _, m in found.objects]), measure=flt.measure)
     broad = _broad(lattice, geoms, shoulder, flt)
+    steady = _steady_along(lattice, geoms, flt)
     kx, ky, kc = xg[found.keep], yg[found.keep], code[found.keep]
     out = []
-    for (g, measure), geom, sh, wide in zip(found.objects, geoms, shoulder, broad):
-        if not _shoulder_passes(flt, sh, wide):
+    for (g, measure), geom, sh, wide, level_line in zip(found.objects, geoms, shoulder, broad, steady):
+        if not (_shoulder_passes(flt, sh, wide) and level_line):
             continue
         shaped = _shape(geom, kx[g], ky[g], kc[g], flt, level=level)
         if shaped is not None:
             out.append(Match(flt.name, level, found.keep[g], shaped, _length(shaped, flt), measure, float(sh)))
     return out
+
+
+def _steady_along(lattice: NodeLattice, geoms: list[shapely.Geometry], flt: Filter) -> NDArray[np.bool_]:
+    """Per match, whether its height (depth) keeps within ``flt.max_trend`` of itself along its
+    line (:func:`queries.profile.height_trend`). Only lines long enough for a trend are fitted:
+    the fits cost time."""
+    steady = np.ones(len(geoms), bool)
+    if flt.max_trend is None or not _line_with_sides(flt):
+        return steady
+    long = [k for k, g in enumerate(geoms) if g.length >= MIN_TREND_PIECES * PIECE]
+    if long:
+        nodes = Nodes.of(*lattice.points())
+        for k in long:
+            trend = height_trend(stretches(geoms[k], nodes, measure=flt.measure))
+            steady[k] = not trend > flt.max_trend  # NaN (no trend read) passes
+    return steady
 
 
 def _line_with_sides(flt: Filter) -> bool:

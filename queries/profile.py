@@ -48,6 +48,7 @@ SHAPES = (1.0, 4.0)  # profile exponents: V, flat-bottomed
 CENTRE_WINDOW = 8.0  # m either side over which a match's centre line is averaged
 MIN_SAMPLES = 10
 NEIGHBOURS = 1  # pieces either side whose fits a piece's depth and width are the median of
+MIN_TREND_PIECES = 3  # pieces a trend along a line is read from
 
 
 @dataclass(frozen=True)
@@ -165,6 +166,25 @@ def form_width(line: shapely.Geometry, nodes: Nodes, *, measure: Measure = Measu
     if not measured:
         return float("nan")
     return weighted_median(np.array([s.width for s in measured]), np.array([s.line.length for s in measured]))
+
+
+def height_trend(pieces: list[Stretch]) -> float:
+    """How far a form's measure (height or depth) changes along its line, as a share of itself:
+    the Theil–Sen slope of its pieces' measures against their places along the line (the median
+    of the slopes between every two pieces, which one odd piece, a junction's or an end's, does not
+    move), times the span between the first and the last piece, over their median. NaN for fewer
+    than :data:`MIN_TREND_PIECES` measured pieces, or a line of several parts (branches at a
+    junction are no one line)."""
+    h = np.array([s.measure for s in pieces])
+    length = np.array([s.line.length for s in pieces])
+    at = np.cumsum(length) - length / 2
+    ok = np.isfinite(h) & (h > 0)
+    if ok.sum() < MIN_TREND_PIECES or len({s.part for s, good in zip(pieces, ok) if good}) > 1:
+        return float("nan")
+    h, at = h[ok], at[ok]
+    i, j = np.triu_indices(len(h), k=1)
+    slope = float(np.median((h[j] - h[i]) / (at[j] - at[i])))
+    return abs(slope) * float(at[-1] - at[0]) / float(np.median(h))
 
 
 def _steady(pieces: list[Stretch], *, reach: int = NEIGHBOURS) -> list[Stretch]:
