@@ -130,8 +130,8 @@ def match_tiles(  # noqa: PLR0913 (the tiles' three arrays, their lattice and th
     steady = _steady_along(lattice, geoms, flt)
     kx, ky, kc = xg[found.keep], yg[found.keep], code[found.keep]
     out = []
-    for (g, measure), geom, sh, wide, level_line in zip(found.objects, geoms, shoulder, broad, steady):
-        if not (_shoulder_passes(flt, sh, wide) and level_line):
+    for (g, measure), geom, sh, wide, keeps_height in zip(found.objects, geoms, shoulder, broad, steady):
+        if not (_shoulder_passes(flt, sh, wide) and keeps_height):
             continue
         shaped = _shape(geom, kx[g], ky[g], kc[g], flt, level=level)
         if shaped is not None:

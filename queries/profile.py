@@ -171,8 +171,9 @@ def form_width(line: shapely.Geometry, nodes: Nodes, *, measure: Measure = Measu
 def height_trend(pieces: list[Stretch]) -> float:
     """How far a form's measure (height or depth) changes along its line, as a share of itself:
     the Theil–Sen slope of its pieces' measures against their places along the line (the median
-    of the slopes between every two pieces, which one odd piece, a junction's or an end's, does not
-    move), times the span between the first and the last piece, over their median. NaN for fewer
+    of the slopes between every two pieces: one odd piece, a junction's or an end's, does not move
+    it among five pieces or more, though it can among three or four), times the span between the
+    first and the last piece, over their median. NaN for fewer
     than :data:`MIN_TREND_PIECES` measured pieces, or a line of several parts (branches at a
     junction are no one line)."""
     h = np.array([s.measure for s in pieces])

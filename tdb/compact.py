@@ -86,7 +86,8 @@ def compact(db: Database, *, into: str | os.PathLike[str] | None = None) -> Comp
 def _copy_into(file: Path, tmp: Path) -> None:
     """The tables copied into a new file ``tmp``, each in key order, through a connection that
     only reads ``file``: a database opened read only refuses writes on its own connections."""
-    con = sqlite3.connect(str(tmp))
+    # URI names, so that the read-only mode of the attached file is understood however SQLite was built
+    con = sqlite3.connect(Path(tmp).resolve().as_uri(), uri=True)
     try:
         con.execute("ATTACH DATABASE ? AS source", (f"{file.resolve().as_uri()}?mode=ro",))
         with con:  # one transaction
@@ -96,7 +97,8 @@ def _copy_into(file: Path, tmp: Path) -> None:
                 table = schema.metadata.tables.get(name)
                 if table is None:  # not tdb's: as it is
                     con.execute(sql)
-                    con.execute(f'INSERT INTO main."{name}" SELECT * FROM source."{name}"')
+                    quoted = '"' + str(name).replace('"', '""') + '"'
+                    con.execute(f"INSERT INTO main.{quoted} SELECT * FROM source.{quoted}")
                     continue
                 con.execute(_create(table, name))
                 columns = ", ".join(f'"{c.name}"' for c in table.columns)

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
-import resource
 import sys
 
 
 def peak_mib(*, children: bool = False) -> float:
     """The largest resident set this process has held, in MiB (with ``children``: the largest
-    of its children that have ended and been waited for)."""
+    of its children that have ended and been waited for); 0 where the system does not say."""
+    try:
+        import resource  # POSIX only
+    except ImportError:
+        return 0.0
     usage = resource.getrusage(resource.RUSAGE_CHILDREN if children else resource.RUSAGE_SELF)
     # Linux counts ru_maxrss in KiB, macOS in bytes
     return usage.ru_maxrss / (2**20 if sys.platform == "darwin" else 2**10)
