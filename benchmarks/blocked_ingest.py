@@ -20,7 +20,7 @@ import numpy as np
 
 import tdb
 from benchmarks.common import DATA, file_run_args, run_child, save
-from tdb.memory import peak_mib
+from tdb.memory import peak_mib, workers_peak_mib
 from tdb.tiles import LEVELS
 
 
@@ -45,7 +45,7 @@ def _run(kind: str, src: str, db_path: str, block: float, threshold: float | Non
         told = v.params.get("worker_peak_mib")  # the workers' own figure: they are not this process's children
     seconds = time.perf_counter() - t0
     own = peak_mib()
-    worker_mib = told or peak_mib(children=True)
+    worker_mib = workers_peak_mib(told)
     print(json.dumps({"seconds": seconds, "peak_rss_mib": own, "worker_peak_rss_mib": worker_mib}))
 
 

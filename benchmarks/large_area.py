@@ -24,7 +24,7 @@ from pathlib import Path
 import tdb
 from benchmarks.common import save
 from ingest.synth import make_scene, write_scene
-from tdb.memory import peak_mib
+from tdb.memory import peak_mib, workers_peak_mib
 
 TILE = 1000.0  # m
 ORIGIN = (600_000.0, 5_000_000.0)
@@ -55,7 +55,7 @@ def _run(folder: str, db_path: str, workers: int) -> None:
     v = ingest_blocked(folder, db, version="large", blocking=Blocking(workers=workers))
     seconds = time.perf_counter() - t0
     own = peak_mib()
-    children = v.params.get("worker_peak_mib") or peak_mib(children=True)  # as the workers told it
+    children = workers_peak_mib(v.params.get("worker_peak_mib"))
     b = v.stats.bounds or (0.0, 0.0, 0.0, 0.0)
     print(
         json.dumps(

@@ -18,7 +18,7 @@ from queries.filters import (
     components,
     tile_lines,
 )
-from queries.profile import MIN_TREND_PIECES, PIECE, Nodes, form_width, height_trend, stretches
+from queries.profile import MIN_TREND_PIECES, PIECE, Nodes, Stretch, height_trend, stretches, width_of
 from queries.relief import tile_relief, two_sided_relief
 from queries.shoulder import shoulders
 from tdb.database import Database
@@ -32,21 +32,34 @@ TILE_SHARE = 0.5  # a tile joins an object when its own relief reaches this shar
 SPREAD_READ = 2  # a form's spread: its relief read this many times farther off than its relief (max_spread)
 
 
-def _broad(
-    lattice: NodeLattice, geoms: list[shapely.Geometry], shoulder: NDArray[np.float64], flt: Filter
-) -> NDArray[np.bool_]:
+class _Sections:
+    """The cross-sections (:func:`queries.profile.stretches`) of the matches' centre lines, fitted
+    at most once each, from the lattice's stored nodes gathered once: the fits cost time."""
+
+    def __init__(self, lattice: NodeLattice, geoms: list[shapely.Geometry], measure: Measure) -> None:
+        self.lattice, self.geoms, self.measure = lattice, geoms, measure
+        self._nodes: Nodes | None = None
+        self._pieces: dict[int, list[Stretch]] = {}
+
+    def of(self, k: int) -> list[Stretch]:
+        if k not in self._pieces:
+            if self._nodes is None:
+                self._nodes = Nodes.of(*self.lattice.points())
+            self._pieces[k] = stretches(self.geoms[k], self._nodes, measure=self.measure)
+        return self._pieces[k]
+
+
+def _broad(sections: _Sections, shoulder: NDArray[np.float64], flt: Filter) -> NDArray[np.bool_]:
     """Per match, whether a shoulder that reads narrow is overruled by cross-sections at least
-    ``flt.broad_width`` wide. Only those matches are measured: the fits cost time."""
-    broad = np.zeros(len(geoms), bool)
+    ``flt.broad_width`` wide. Only those matches are measured."""
+    broad = np.zeros(len(sections.geoms), bool)
     bound = flt.min_shoulder if flt.min_shoulder is not None else flt.max_shoulder
     if flt.broad_width is None or bound is None:
         return broad
     with np.errstate(invalid="ignore"):
         narrow = np.flatnonzero(shoulder <= bound)
-    if len(narrow):
-        nodes = Nodes.of(*lattice.points())
-        for k in narrow:
-            broad[k] = form_width(geoms[k], nodes, measure=flt.measure) >= flt.broad_width
+    for k in narrow:
+        broad[k] = width_of(sections.of(int(k))) >= flt.broad_width
     return broad
 
 
@@ -126,8 +139,9 @@ def match_tiles(  # noqa: PLR0913 (the tiles' three arrays, their lattice and th
     shoulder = np.full(len(found.objects), np.nan)
     if _line_with_sides(flt) and (flt.min_shoulder is not None or flt.max_shoulder is not None):
         shoulder = shoulders(lattice, geoms, np.array([m for _, m in found.objects]), measure=flt.measure)
-    broad = _broad(lattice, geoms, shoulder, flt)
-    steady = _steady_along(lattice, geoms, flt)
+    sections = _Sections(lattice, geoms, flt.measure)
+    broad = _broad(sections, shoulder, flt)
+    steady = _steady_along(sections, flt)
     kx, ky, kc = xg[found.keep], yg[found.keep], code[found.keep]
     out = []
     for (g, measure), geom, sh, wide, keeps_height in zip(found.objects, geoms, shoulder, broad, steady):
@@ -139,19 +153,15 @@ def match_tiles(  # noqa: PLR0913 (the tiles' three arrays, their lattice and th
     return out
 
 
-def _steady_along(lattice: NodeLattice, geoms: list[shapely.Geometry], flt: Filter) -> NDArray[np.bool_]:
+def _steady_along(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
     """Per match, whether its height (depth) keeps within ``flt.max_trend`` of itself along its
-    line (:func:`queries.profile.height_trend`). Only lines long enough for a trend are fitted:
-    the fits cost time."""
-    steady = np.ones(len(geoms), bool)
+    line (:func:`queries.profile.height_trend`). Only lines long enough for a trend are measured."""
+    steady = np.ones(len(sections.geoms), bool)
     if flt.max_trend is None or not _line_with_sides(flt):
         return steady
-    long = [k for k, g in enumerate(geoms) if g.length >= MIN_TREND_PIECES * PIECE]
-    if long:
-        nodes = Nodes.of(*lattice.points())
-        for k in long:
-            trend = height_trend(stretches(geoms[k], nodes, measure=flt.measure))
-            steady[k] = not trend > flt.max_trend  # NaN (no trend read) passes
+    for k, g in enumerate(sections.geoms):
+        if g.length >= MIN_TREND_PIECES * PIECE:
+            steady[k] = not height_trend(sections.of(k)) > flt.max_trend  # NaN (no trend read) passes
     return steady
 
 

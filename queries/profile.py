@@ -160,9 +160,9 @@ def stretches(line: shapely.Geometry, nodes: Nodes, *, measure: Measure = Measur
     return out
 
 
-def form_width(line: shapely.Geometry, nodes: Nodes, *, measure: Measure = Measure.HEIGHT) -> float:
-    """Length-weighted median width (m) of a match's stretches; NaN where none could be fitted."""
-    measured = [s for s in stretches(line, nodes, measure=measure) if np.isfinite(s.width)]
+def width_of(pieces: list[Stretch]) -> float:
+    """Length-weighted median width (m) of a match's ``pieces``; NaN where none was fitted."""
+    measured = [s for s in pieces if np.isfinite(s.width)]
     if not measured:
         return float("nan")
     return weighted_median(np.array([s.width for s in measured]), np.array([s.line.length for s in measured]))

@@ -62,9 +62,8 @@ def compact(db: Database, *, into: str | os.PathLike[str] | None = None) -> Comp
     file = _file(db)
     if into is not None and file is None:
         raise InputError(f"{db.name}: a server database is rewritten in place, not into a file")
-    if into is not None and db.schema_version() < schema.SCHEMA_VERSION:
+    if into is not None and (found := db.schema_version()) < schema.SCHEMA_VERSION:
         # its tables are copied in the current layout, which an older schema's do not fit
-        found = db.schema_version()
         raise InputError(f"{db.name}: schema version {found}; open it writable once to upgrade it first")
     if into is None and db.readonly:
         raise InputError(f"{db.name}: opened read only; it can be rewritten into a new file only")
@@ -101,11 +100,7 @@ def _copy_into(file: Path, tmp: Path) -> None:
                     con.execute(f"INSERT INTO main.{quoted} SELECT * FROM source.{quoted}")
                     continue
                 con.execute(_create(table, name))
-                columns = ", ".join(f'"{c.name}"' for c in table.columns)
-                con.execute(
-                    f'INSERT INTO main."{name}" ({columns}) SELECT {columns} FROM source."{name}" '
-                    f"ORDER BY {_key(table)}"
-                )
+                con.execute(_ordered_copy(table, into=f'main."{name}"', source=f'source."{name}"'))
             for (sql,) in con.execute(
                 "SELECT sql FROM source.sqlite_master WHERE type = 'index' AND sql IS NOT NULL"
             ).fetchall():
@@ -122,11 +117,8 @@ def _in_key_order(conn: Connection) -> None:
         if table.name not in present:
             continue
         new = f"{table.name}__compact"
-        columns = ", ".join(f'"{c.name}"' for c in table.columns)
         conn.exec_driver_sql(_create(table, new))
-        conn.exec_driver_sql(
-            f'INSERT INTO "{new}" ({columns}) SELECT {columns} FROM "{table.name}" ORDER BY {_key(table)}'
-        )
+        conn.exec_driver_sql(_ordered_copy(table, into=f'"{new}"', source=f'"{table.name}"'))
         conn.exec_driver_sql(f'DROP TABLE "{table.name}"')
         conn.exec_driver_sql(f'ALTER TABLE "{new}" RENAME TO "{table.name}"')
 
@@ -139,18 +131,23 @@ def _create(table: Table, name: str) -> str:
     return f'CREATE TABLE "{name}" ' + sql[len(head) :]
 
 
-def _key(table: Table) -> str:
-    return ", ".join(f'"{c.name}"' for c in table.primary_key.columns)
+def _ordered_copy(table: Table, *, into: str, source: str) -> str:
+    """The INSERT that copies ``table``'s rows from ``source`` into ``into`` (both quoted names)
+    in the order of its key."""
+    columns = ", ".join(f'"{c.name}"' for c in table.columns)
+    key = ", ".join(f'"{c.name}"' for c in table.primary_key.columns)
+    return f"INSERT INTO {into} ({columns}) SELECT {columns} FROM {source} ORDER BY {key}"
 
 
 def _in_place(db: Database) -> None:
     """The tables of BLOBs in key order (one transaction), then VACUUM, which needs a
     connection outside any transaction."""
-    if db.engine.dialect.name == "sqlite":
+    sqlite = db.engine.dialect.name == "sqlite"
+    if sqlite:
         with db.transaction() as conn:
             _in_key_order(conn)
     with db.engine.connect().execution_options(isolation_level="AUTOCOMMIT") as conn:
-        if db.engine.dialect.name == "sqlite":
+        if sqlite:
             conn.exec_driver_sql("VACUUM")
             # the rewrite went through the journal: copied into the file, its space given back
             conn.exec_driver_sql("PRAGMA wal_checkpoint(TRUNCATE)")

@@ -15,3 +15,10 @@ def peak_mib(*, children: bool = False) -> float:
     usage = resource.getrusage(resource.RUSAGE_CHILDREN if children else resource.RUSAGE_SELF)
     # Linux counts ru_maxrss in KiB, macOS in bytes
     return usage.ru_maxrss / (2**20 if sys.platform == "darwin" else 2**10)
+
+
+def workers_peak_mib(told: float | None) -> float:
+    """The largest worker's peak memory (MiB): as the workers ``told`` it (a version's
+    ``worker_peak_mib``; they may be no children of this process), else the largest of the child
+    processes waited for."""
+    return told or peak_mib(children=True)

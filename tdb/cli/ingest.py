@@ -26,10 +26,10 @@ def _summary(
 ) -> str:
     """Points, area, time and peak memory (this process's, and the largest worker's: as the
     workers told it, ``worker_mib``, else of the child processes waited for) of an ingest."""
-    from tdb.memory import peak_mib
+    from tdb.memory import peak_mib, workers_peak_mib
 
     own = peak_mib()
-    workers = worker_mib or peak_mib(children=True)
+    workers = workers_peak_mib(worker_mib)
     km2 = (bounds[2] - bounds[0]) * (bounds[3] - bounds[1]) / 1e6 if bounds else 0.0
     memory = f"peak memory {own:,.0f} MiB" + (f", {workers:,.0f} MiB per worker" if workers else "")
     rate = points / max(seconds, 1e-9)
