@@ -139,3 +139,10 @@ CREATE TABLE trees (
 	PRIMARY KEY (version, bx, by, x, y), 
 	FOREIGN KEY(version) REFERENCES versions (id) ON DELETE CASCADE
 );
+
+-- PostgreSQL 14 on; an older server keeps its default
+ALTER TABLE "tile_blocks" ALTER COLUMN "codes" SET COMPRESSION lz4;
+ALTER TABLE "point_blocks" ALTER COLUMN "data" SET COMPRESSION lz4;
+ALTER TABLE "evidence_blocks" ALTER COLUMN "data" SET COMPRESSION lz4;
+ALTER TABLE "trees" ALTER COLUMN "crown" SET COMPRESSION lz4;
+ALTER TABLE "buildings" ALTER COLUMN "footprint" SET COMPRESSION lz4;

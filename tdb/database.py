@@ -30,6 +30,7 @@ from tdb.bbox import Box, check_bbox, clip_bbox
 from tdb.categories import all_categories
 from tdb.errors import DatabaseError, InputError, Remedy, TdbIOError, VersionExistsError, VersionNotFoundError
 from tdb.evidence import TileEvidence
+from tdb.fetch import fetch_rows
 from tdb.object_store import read_buildings, read_trees, rekey_objects
 from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
@@ -282,6 +283,7 @@ class Database:
             if found == 4:
                 rekey_objects(conn)
             schema.metadata.create_all(conn, checkfirst=True)
+            _compress_blobs(conn)
             old = conn.execute(select(schema.versions.c.id)).scalars().all() if found < 2 else []
             for vid in old:
                 for level, table in schema.level_tables.items():
@@ -300,6 +302,7 @@ class Database:
     def _create_schema(self) -> None:
         with self.transaction() as conn:
             schema.metadata.create_all(conn)
+            _compress_blobs(conn)
             conn.execute(schema.meta.insert(), [{"key": "schema_version", "value": str(schema.SCHEMA_VERSION)}])
             conn.execute(
                 schema.categories.insert(),
@@ -571,11 +574,9 @@ class Database:
         order = np.lexsort((y, x))
         return x[order], y[order], z[order], n[order]
 
-    def _fetch(self, q: Any) -> list[Any]:
+    def _fetch(self, q: Any) -> list[tuple[Any, ...]]:
         with self.engine.connect() as conn:
-            if conn.dialect.name == "postgresql":
-                return _fetch_binary(conn, q)
-            return list(conn.execute(q))
+            return fetch_rows(conn, q)
 
     def _probe(self, q: Any, column: Any, values: list[Any]) -> list[Any]:
         """Rows of ``q`` with ``column`` IN values, in chunks that respect bound-parameter limits."""
@@ -612,20 +613,8 @@ class Database:
         bbox = clip_bbox(bbox, _widened(v.stats.bounds, level), what=f"version {name!r}")
         xg, yg, code = self._block_tiles(vid, level, bbox)
         x, y, z, n = self._block_points(vid, level, bbox)
-        return Area(
-            name,
-            level,
-            bbox,
-            xg,
-            yg,
-            code,
-            x,
-            y,
-            z,
-            n,
-            self._trees(vid, bbox),
-            self._buildings(vid, bbox),
-        )
+        trees, buildings = self._trees(vid, bbox), self._buildings(vid, bbox)
+        return Area(name, level, bbox, xg, yg, code, x, y, z, n, trees, buildings)
 
     def _block_tiles(
         self, vid: int, level: int, bbox: tuple[float, float, float, float] | None
@@ -633,7 +622,7 @@ class Database:
         tb = schema.tile_blocks
         q = select(tb.c.bx, tb.c.by, tb.c.codes).where(tb.c.version == vid, tb.c.level == level)
         q = _in_blocks(q, tb, bbox, blocks.TILES_PER_BLOCK * level)
-        rows = [tuple(r) for r in self._fetch(q)]
+        rows = self._fetch(q)
         inf = float("inf")
         return blocks.tiles_from_blocks(rows, bbox or (-inf, -inf, inf, inf), level=level)
 
@@ -645,7 +634,7 @@ class Database:
         q = _in_blocks(q, pb, bbox, point_pages.POINT_BLOCK)
         inf = float("inf")
         mask = 1 << schema_levels().index(level)
-        rows = [tuple(r) for r in self._fetch(q)]
+        rows = self._fetch(q)
         return point_pages.points_from_blocks(rows, bbox or (-inf, -inf, inf, inf), mask=mask)
 
     def evidence(self, version: str, *, bbox: tuple[float, float, float, float] | None = None) -> TileEvidence:
@@ -659,7 +648,7 @@ class Database:
             select(eb.c.bx, eb.c.by, eb.c.data).where(eb.c.version == vid), eb, bbox, blocks.TILES_PER_BLOCK * 2
         )
         inf = float("inf")
-        rows = [tuple(r) for r in self._fetch(q)]
+        rows = self._fetch(q)
         xg, yg, fields = blocks.evidence_from_blocks(
             rows, bbox or (-inf, -inf, inf, inf), fields=len(TileEvidence.FIELDS)
         )
@@ -781,16 +770,17 @@ def _in_blocks(q: Any, table: Any, bbox: tuple[float, float, float, float] | Non
     return q.where(schema.in_blocks(table, check_bbox(bbox), side))
 
 
-def _fetch_binary(conn: Any, q: Any) -> list[Any]:
-    """The rows of ``q`` from PostgreSQL in its binary format: a page's bytes come as they are,
-    where the text format sends them as hexadecimal, twice the size, to be decoded again."""
-    compiled = q.compile(dialect=conn.dialect, compile_kwargs={"render_postcompile": True})
-    cursor = conn.connection.cursor(binary=True)
+def _compress_blobs(conn: Connection) -> None:
+    """On PostgreSQL, the BLOB columns compressed with LZ4 (:func:`tdb.schema.blob_compression`)
+    where the server can; a server before 14, or built without LZ4, keeps its default."""
+    if conn.dialect.name != "postgresql":
+        return
     try:
-        cursor.execute(str(compiled), compiled.params)
-        return list(cursor.fetchall())
-    finally:
-        cursor.close()
+        with conn.begin_nested():
+            for statement in schema.blob_compression():
+                conn.exec_driver_sql(statement)
+    except SADatabaseError:
+        pass  # only slower reads: the values are the same
 
 
 def _columns(rows: list[Any], dtypes: tuple[Any, ...]) -> Any:

@@ -19,6 +19,7 @@ import shapely
 from sqlalchemy import Connection, and_, insert, select
 
 from tdb import schema
+from tdb.fetch import fetch_rows
 from tdb.objects import Building, Tree
 
 REACH = 100.0  # m: no crown or footprint reaches further than this from its key
@@ -105,7 +106,7 @@ def read_trees(
     """The trees of a version whose crown meets ``bbox`` (all where None), tallest first."""
     t = schema.trees
     q = select(t.c.x, t.c.y, t.c.height, t.c.crown_diameter, t.c.crown).where(_where(t, vid, bbox, keyed=keyed))
-    rows = [tuple(r) for r in conn.execute(q).all()]  # plain tuples: a Row's attributes cost more than the tree
+    rows = fetch_rows(conn, q)
     crowns = _meeting(shapely.from_wkb([r[4] for r in rows]), bbox)
     out = [Tree(x, y, h, d, crown) for (x, y, h, d, _), crown in zip(rows, crowns) if crown is not None]
     return sorted(out, key=lambda tree: -tree.height)
@@ -116,10 +117,7 @@ def read_buildings(
 ) -> list[Building]:
     """The buildings of a version whose footprint meets ``bbox`` (all where None), largest first."""
     b = schema.buildings
-    rows = [
-        tuple(r)
-        for r in conn.execute(select(b.c.height, b.c.footprint).where(_where(b, vid, bbox, keyed=keyed))).all()
-    ]
+    rows = fetch_rows(conn, select(b.c.height, b.c.footprint).where(_where(b, vid, bbox, keyed=keyed)))
     shapes = _meeting(shapely.from_wkb([r[1] for r in rows]), bbox)
     out = [Building(shape, h) for (h, _), shape in zip(rows, shapes) if shape is not None]
     return sorted(out, key=lambda bd: -bd.area)

@@ -45,6 +45,10 @@ def test_round_trip_area_sql_filter_and_diff_on_postgresql(pg, tmp_path):
         zip(other.xg.tolist(), other.yg.tolist(), other.code.tolist())
     )
     np.testing.assert_allclose(np.sort(area.z), np.sort(other.z))
+    with pg.engine.connect() as conn:  # pages stored LZ4-compressed where the server can (14 on)
+        if conn.dialect.server_version_info >= (14,):
+            methods = conn.exec_driver_sql("SELECT DISTINCT pg_column_compression(data) FROM point_blocks")
+            assert set(methods.scalars()) - {None} == {"lz4"}
     _, _, flat = pg.tiles("s", level=2, categories=[0])
     assert len(flat) == int((area.code == 0).sum())
     later, _ = apply_changes(scene, seed=4)
