@@ -18,7 +18,8 @@ from tdb.geojson import feature, feature_collection
 @dataclass(frozen=True)
 class Tree:
     """One tree: its top's position (m, in the survey's CRS), height over the ground (m), crown
-    diameter (m, of a circle of the crown's area) and crown outline."""
+    diameter (m: of the circle of the crown's area, or fitted to its free edge where it meets
+    other crowns) and crown outline."""
 
     x: float
     y: float
@@ -28,6 +29,7 @@ class Tree:
 
     @property
     def crown_area(self) -> float:
+        """The area of the crown's circle (m²)."""
         return float(np.pi * self.crown_diameter**2 / 4)
 
 

@@ -192,11 +192,12 @@ def test_trees_found_with_their_height_and_crown(scene_objects) -> None:
     got = np.array([[t.x, t.y, t.height, t.crown_diameter] for t in found.trees])
     s = score_trees(truth, got)
     assert s.f1 >= 0.9
-    assert s.position_rmse <= 0.5 and s.height_rmse <= 0.5
+    assert s.position_rmse <= 0.5 and s.height_rmse <= 0.5 and s.diameter_rmse <= 0.5
     for t in found.trees:
         # the top lies in its crown (or on its outline's cell edge)
         assert t.crown.is_valid and t.crown.distance(shapely.Point(t.x, t.y)) < 0.5
-        assert t.crown_diameter == pytest.approx(2 * np.sqrt(t.crown.area / np.pi), rel=0.01)
+        # of the crown's area, or fitted to its free edge where crowns meet (within bounds of it)
+        assert 0.5 <= t.crown_diameter / (2 * np.sqrt(t.crown.area / np.pi)) <= 2.0
 
 
 def test_single_returns_still_classify_with_a_warning(scene_objects) -> None:

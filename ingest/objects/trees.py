@@ -7,8 +7,8 @@ by the active contour of the ground filter applied from above: returns deeper th
 scales; on each, every vegetation cell climbs to its local maximum (:mod:`climb`), and
 the scales are combined crown by crown by paraboloid fits (:mod:`crowns`). Each segment is
 a tree: its highest return gives the position, and the height less the shortfall of a
-crown's highest return below its top (:mod:`apex`, measured on the survey), its area the crown
-diameter.
+crown's highest return below its top (:mod:`apex`, measured on the survey), its area or its free
+edge the crown diameter (:mod:`crown_size`).
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from ingest.ground.grids import Grid
 from ingest.objects.apex import sampling_shortfall
 from ingest.objects.climb import climb
 from ingest.objects.cover import Cover, cell_size
+from ingest.objects.crown_size import crown_diameters
 from ingest.objects.crowns import choose_scales
 from ingest.objects.heights import TopRaster
 from ingest.objects.outline import outlines
@@ -140,13 +141,13 @@ def _measure(labels: NDArray[np.intp], top: TopRaster, xyz: NDArray[np.float64],
     height[lab[order][last]] = h[order][last]
     keep = (cells >= min_cells) & (best >= 0)
     shapes = outlines(np.where(keep[np.maximum(labels, 0)] & (labels >= 0), labels, -1), top.grid)
-    area = cells * top.grid.cell**2
+    diameter = crown_diameters(labels, top.grid.cell)
     trees = [
         Tree(
             float(xyz[best[k], 0]),
             float(xyz[best[k], 1]),
             float(height[k]),
-            float(2 * np.sqrt(area[k] / np.pi)),
+            float(diameter[k]),
             shapes[int(k)],
         )
         for k in np.flatnonzero(keep)
