@@ -45,6 +45,11 @@ def test_round_trip_area_sql_filter_and_diff_on_postgresql(pg, tmp_path):
         zip(other.xg.tolist(), other.yg.tolist(), other.code.tolist())
     )
     np.testing.assert_allclose(np.sort(area.z), np.sort(other.z))
+    # the objects too, their outlines read in the server's binary format
+    assert area.trees and [(t.x, t.y, t.height, t.crown.wkb) for t in area.trees] == [
+        (t.x, t.y, t.height, t.crown.wkb) for t in other.trees
+    ]
+    assert [b.footprint.wkb for b in area.buildings] == [b.footprint.wkb for b in other.buildings]
     with pg.engine.connect() as conn:  # pages stored LZ4-compressed where the server can (14 on)
         if conn.dialect.server_version_info >= (14,):
             methods = conn.exec_driver_sql("SELECT DISTINCT pg_column_compression(data) FROM point_blocks")
