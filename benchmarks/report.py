@@ -455,7 +455,11 @@ def big_db_section(out: list[str]) -> None:
         "The first read of each box comes from the disk where the database is larger than the "
         "system's page cache; the *cached* column reads the same boxes again (– where not measured). "
         "*Compacted*: the database rewritten by `tdb compact` before the queries (`--compact`; each "
-        "table's pages in key order), with the seconds it took.",
+        "table's pages in key order), with the seconds it took. PostgreSQL databases created from "
+        "2026-12-05 on hold their BLOB columns in LZ4, not the server's default pglz "
+        "(`docs/database.md`); the 17 km² one fits in the memory, so all its reads come from the "
+        "system's cache. PostgreSQL at 1,000 km² was not built: at about 70 MB per km² per version "
+        "(its row tables' headers and indices) it needs more disk than this machine has free (48 GB).",
         "",
         "| backend | area km² (re-survey) | points/m² | 2 m tiles per version | kept points per version "
         "| database MiB | compacted "
