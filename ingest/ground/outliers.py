@@ -192,8 +192,10 @@ def ground_spikes(
     return out
 
 
-REACH = (2.0, 6.0, 14.0)  # m: how far the ground a suspect lies under is looked for
 BLOCK = 2.0  # m: the raster that picks the suspects
+# m: how far the ground a suspect lies under is looked for, block by block, so that the 45° rise
+# allowed is that of the nearest ground, not of a coarser step beyond it
+REACH = tuple(BLOCK * k for k in range(1, 8))
 
 
 @dataclass(frozen=True)
