@@ -18,7 +18,7 @@ from queries.filters import (
     components,
     tile_lines,
 )
-from queries.profile import MIN_TREND_PIECES, PIECE, Nodes, Stretch, height_trend, stretches, width_of
+from queries.profile import BAND, MIN_TREND_PIECES, PIECE, Nodes, Stretch, height_trend, stretches, width_of
 from queries.relief import tile_relief, two_sided_relief
 from queries.shoulder import shoulders
 from tdb.database import Database
@@ -29,6 +29,8 @@ from tdb.tiles import NodeLattice, node_lattice
 REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
 LINK_TILES = 3.0  # extreme nodes of touching tiles lie at most 2√2 tiles apart
 TILE_SHARE = 0.5  # a tile joins an object when its own relief reaches this share of min_measure
+WIDE = 2  # the band of a form's second trend reading, in usual bands (_steady_along)
+WIDTH_STEP = 0.05  # m: a fitted width this close to the band's limit reads at the limit
 SPREAD_READ = 2  # a form's spread: its relief read this many times farther off than its relief (max_spread)
 
 
@@ -39,14 +41,14 @@ class _Sections:
     def __init__(self, lattice: NodeLattice, geoms: list[shapely.Geometry], measure: Measure) -> None:
         self.lattice, self.geoms, self.measure = lattice, geoms, measure
         self._nodes: Nodes | None = None
-        self._pieces: dict[int, list[Stretch]] = {}
+        self._pieces: dict[tuple[int, float], list[Stretch]] = {}
 
-    def of(self, k: int) -> list[Stretch]:
-        if k not in self._pieces:
+    def of(self, k: int, *, band: float = BAND) -> list[Stretch]:
+        if (k, band) not in self._pieces:
             if self._nodes is None:
                 self._nodes = Nodes.of(*self.lattice.points())
-            self._pieces[k] = stretches(self.geoms[k], self._nodes, measure=self.measure)
-        return self._pieces[k]
+            self._pieces[k, band] = stretches(self.geoms[k], self._nodes, measure=self.measure, band=band)
+        return self._pieces[k, band]
 
 
 def _broad(sections: _Sections, shoulder: NDArray[np.float64], flt: Filter) -> NDArray[np.bool_]:
@@ -155,13 +157,21 @@ def match_tiles(  # noqa: PLR0913 (the tiles' three arrays, their lattice and th
 
 def _steady_along(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
     """Per match, whether its height (depth) keeps within ``flt.max_trend`` of itself along its
-    line (:func:`queries.profile.height_trend`). Only lines long enough for a trend are measured."""
+    line (:func:`queries.profile.height_trend`), read from cross-sections of the usual band and
+    of one :data:`WIDE` times as wide where a piece reads as wide as the usual band can see. A
+    natural spur widens downstream past that band: its fits there read the top of the form alone,
+    which keeps about the same height as the spur grows; the wide band sees the spur's growth.
+    Only lines long enough for a trend are measured."""
     steady = np.ones(len(sections.geoms), bool)
     if flt.max_trend is None or not _line_with_sides(flt):
         return steady
     for k, g in enumerate(sections.geoms):
-        if g.length >= MIN_TREND_PIECES * PIECE:
-            steady[k] = not height_trend(sections.of(k)) > flt.max_trend  # NaN (no trend read) passes
+        if g.length < MIN_TREND_PIECES * PIECE:
+            continue
+        pieces = sections.of(k)
+        steady[k] = not height_trend(pieces) > flt.max_trend  # NaN (no trend read) passes
+        if steady[k] and any(s.width >= 2 * BAND - WIDTH_STEP for s in pieces):  # as wide as the band sees
+            steady[k] = not height_trend(sections.of(k, band=WIDE * BAND)) > flt.max_trend
     return steady
 
 

@@ -49,6 +49,7 @@ CENTRE_WINDOW = 8.0  # m either side over which a match's centre line is average
 MIN_SAMPLES = 10
 NEIGHBOURS = 1  # pieces either side whose fits a piece's depth and width are the median of
 MIN_TREND_PIECES = 3  # pieces a trend along a line is read from
+NO_FORM = 0.05  # m: a piece's fit under this found no form there
 
 
 @dataclass(frozen=True)
@@ -78,14 +79,15 @@ class Nodes:
 
 
 def fit_profile(
-    offset: NDArray[np.float64], relief: NDArray[np.float64], *, blur: float = BLUR
+    offset: NDArray[np.float64], relief: NDArray[np.float64], *, blur: float = BLUR, band: float = BAND
 ) -> tuple[float, float]:
     """(height, width) of the profile that best fits ``relief`` (m, positive into the form) at
-    signed ``offset`` (m) from the line, once blurred by a Gaussian of ``blur`` m (0: not)."""
+    signed ``offset`` (m, within ``band``) from the line, once blurred by a Gaussian of ``blur``
+    m (0: not)."""
     top = float(np.clip(np.percentile(relief, 95), 0.05, 4.9))
     # the start: half the width at half the height, where the samples say
     half = np.abs(offset[relief > top / 2])
-    h0 = float(np.clip(2 * np.median(half) if len(half) else 1.0, 0.3, 3.5))
+    h0 = float(np.clip(2 * np.median(half) if len(half) else 1.0, 0.3, band + 0.5))
     # without a blur one tap is the profile itself
     taps, weight = (_TAPS * blur, _TAP_WEIGHTS) if blur else (np.zeros(1), np.ones(1))
     best: tuple[float, float, float] | None = None
@@ -111,15 +113,15 @@ def fit_profile(
             residual,
             [top, h0, 0.0],
             jac=jacobian,
-            bounds=([0, 0.2, -1.0], [5, 4, 1.0]),
+            bounds=([0, 0.2, -1.0], [5, band + 1, 1.0]),
             loss="soft_l1",
             f_scale=0.1,
         )
         if best is None or fit.cost < best[0]:
             best = (float(fit.cost), float(fit.x[0]), float(2 * fit.x[1]))
     assert best is not None
-    # the samples reach BAND either side: a wider fit only says the banks lie beyond them
-    return best[1], min(best[2], 2 * BAND)
+    # the samples reach the band either side: a wider fit only says the banks lie beyond them
+    return best[1], min(best[2], 2 * band)
 
 
 def smooth_line(line: shapely.LineString, *, window: float = 2.0, step: float = 0.5) -> shapely.LineString:
@@ -134,7 +136,9 @@ def smooth_line(line: shapely.LineString, *, window: float = 2.0, step: float = 
     return shapely.LineString(np.column_stack([np.convolve(pad[:, i], kernel, "valid") for i in (0, 1)]))
 
 
-def stretches(line: shapely.Geometry, nodes: Nodes, *, measure: Measure = Measure.DEPTH) -> list[Stretch]:
+def stretches(
+    line: shapely.Geometry, nodes: Nodes, *, measure: Measure = Measure.DEPTH, band: float = BAND
+) -> list[Stretch]:
     """The stretches of one match's centre line (Multi)LineString with their cross-sections,
     from the stored ``nodes`` around it. Pieces too short or too sparse to fit take the
     length-weighted median of the match's measured ones."""
@@ -148,7 +152,7 @@ def stretches(line: shapely.Geometry, nodes: Nodes, *, measure: Measure = Measur
         for i in range(count):
             piece = shapely.ops.substring(smooth, i * smooth.length / count, (i + 1) * smooth.length / count)
             fitted = part.length >= MIN_PART and isinstance(piece, shapely.LineString) and piece.length > 0
-            d, w = _cross_section(piece, nodes, sign) if fitted else (np.nan, np.nan)
+            d, w = _cross_section(piece, nodes, sign, band) if fitted else (np.nan, np.nan)
             out.append(Stretch(piece, k, d, w))
     out = _steady(out)
     measured = [s for s in out if np.isfinite(s.width)]
@@ -173,19 +177,23 @@ def height_trend(pieces: list[Stretch]) -> float:
     the Theil–Sen slope of its pieces' measures against their places along the line (the median
     of the slopes between every two pieces: one odd piece, a junction's or an end's, does not move
     it among five pieces or more, though it can among three or four), times the span between the
-    first and the last piece, over their median. NaN for fewer
-    than :data:`MIN_TREND_PIECES` measured pieces, or a line of several parts (branches at a
-    junction are no one line)."""
+    first and the last piece, over their median. A piece's place is its middle's along the main
+    axis of the pieces' middles, so that a line broken at junctions (a spur with stubs beside
+    it) is read as one, and branches of one section read no trend. Pieces whose fit found no form
+    (under :data:`NO_FORM`) do not count. NaN for fewer than :data:`MIN_TREND_PIECES` counted."""
     h = np.array([s.measure for s in pieces])
-    length = np.array([s.line.length for s in pieces])
-    at = np.cumsum(length) - length / 2
-    ok = np.isfinite(h) & (h > 0)
-    if ok.sum() < MIN_TREND_PIECES or len({s.part for s, good in zip(pieces, ok) if good}) > 1:
+    ok = np.isfinite(h) & (h >= NO_FORM)
+    if ok.sum() < MIN_TREND_PIECES:
         return float("nan")
-    h, at = h[ok], at[ok]
+    middles = np.array([s.line.interpolate(0.5, normalized=True).coords[0] for s in pieces])[ok]
+    middles = middles - middles.mean(axis=0)
+    axis = np.linalg.svd(middles, full_matrices=False)[2][0]
+    h, at = h[ok], middles @ axis
     i, j = np.triu_indices(len(h), k=1)
-    slope = float(np.median((h[j] - h[i]) / (at[j] - at[i])))
-    return abs(slope) * float(at[-1] - at[0]) / float(np.median(h))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slopes = (h[j] - h[i]) / (at[j] - at[i])
+    slope = float(np.median(slopes[np.isfinite(slopes)])) if np.isfinite(slopes).any() else 0.0
+    return abs(slope) * float(np.ptp(at)) / float(np.median(h))
 
 
 def _steady(pieces: list[Stretch], *, reach: int = NEIGHBOURS) -> list[Stretch]:
@@ -203,9 +211,10 @@ def _steady(pieces: list[Stretch], *, reach: int = NEIGHBOURS) -> list[Stretch]:
     return out
 
 
-def _cross_section(piece: shapely.LineString, nodes: Nodes, sign: float) -> tuple[float, float]:
+def _cross_section(piece: shapely.LineString, nodes: Nodes, sign: float, band: float) -> tuple[float, float]:
     points, x, y, z = nodes.points, nodes.x, nodes.y, nodes.z
-    idx = nodes.tree.query(piece, predicate="dwithin", distance=SIDE[1])
+    side = (band + SIDE[0] - BAND, band * SIDE[1] / BAND)  # the terrain beside, as far out as the band
+    idx = nodes.tree.query(piece, predicate="dwithin", distance=side[1])
     at = shapely.line_locate_point(piece, points[idx])
     inner = (at > 0.01) & (at < piece.length - 0.01)  # beside the piece, not beyond its ends
     idx, at = idx[inner], at[inner]
@@ -215,14 +224,14 @@ def _cross_section(piece: shapely.LineString, nodes: Nodes, sign: float) -> tupl
     ax, ay = shapely.get_x(a), shapely.get_y(a)
     tx, ty = shapely.get_x(b) - ax, shapely.get_y(b) - ay
     offset = np.sign(tx * (y[idx] - ay) - ty * (x[idx] - ax)) * dist
-    far, near = dist > SIDE[0], dist < BAND
+    far, near = dist > side[0], dist < band
     if far.sum() < MIN_SAMPLES or near.sum() < MIN_SAMPLES:
         return np.nan, np.nan
     mx, my = x[idx].mean(), y[idx].mean()
     design = np.column_stack([np.ones(len(idx)), x[idx] - mx, y[idx] - my])
     coef = np.linalg.lstsq(design[far], z[idx][far], rcond=None)[0]
     relief = sign * (design @ coef - z[idx])
-    return fit_profile(offset[near], relief[near])
+    return fit_profile(offset[near], relief[near], band=band)
 
 
 def weighted_median(values: NDArray[np.float64], weights: NDArray[np.float64]) -> float:

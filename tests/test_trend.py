@@ -43,8 +43,16 @@ def test_a_steady_rise_reads_as_its_share_of_the_height(start, change, count, le
 def test_one_odd_piece_does_not_make_a_trend_and_too_little_reads_none():
     assert height_trend(_pieces([0.78, 1.15, 1.15, 1.15, 1.15])) == 0.0  # a junction's short piece
     assert np.isnan(height_trend(_pieces([1.0, 1.2])))
-    assert np.isnan(height_trend(_pieces([1.0, 1.1, 1.2, 1.3], parts=[0, 0, 1, 1])))  # two branches
     assert np.isnan(height_trend(_pieces([1.0, np.nan, 1.2])))
+    assert np.isnan(height_trend(_pieces([1.0, 0.01, 1.2])))  # a fit that found no form does not count
+
+
+def test_a_line_broken_at_junctions_is_read_along_its_main_axis():
+    """A spur with stubs beside it is matched as several parts: they are read as one line."""
+    assert np.isclose(height_trend(_pieces([1.0, 1.1, 1.2, 1.3], parts=[0, 0, 1, 2])), 0.3 / 1.15)
+    # branches leaving the line sideways, of the same section, read no trend
+    arm = Stretch(shapely.LineString([(30, 0), (30, 20)]), 3, 1.0, 4.0)
+    assert height_trend([*_pieces([1.0, 1.0, 1.0], parts=[0, 1, 2]), arm]) == 0.0
 
 
 @pytest.mark.slow
@@ -74,3 +82,27 @@ def test_the_ridge_filter_keeps_a_ridge_and_drops_a_spur_that_rises_as_it_widens
     # without the test the spur is taken for a ridge: the test is what parts them
     unbounded = find(db, "v", replace(flt, max_trend=None))
     assert found_near(unbounded, spur) > 0.3
+
+
+@pytest.mark.slow
+def test_a_spur_wider_than_the_usual_band_is_read_again_with_a_wider_one(tmp_path, monkeypatch):
+    """A spur that widens from 5 to 14 m as it rises from 0.4 to 1.2 m: fits 6 m wide read its top
+    alone, about as high all along (a trend of 0.28); fits twice as wide see it grow (0.6)."""
+    import queries.match
+
+    base = make_scene(seed=3, size=160)
+    x0, y0 = base.bounds[:2]
+    line = shapely.LineString([(x0 + 15, y0 + 80), (x0 + 145, y0 + 86)])
+    spur = Feature("spur", line, 0.4, 5.0, "natural", 1, end_size=1.2, end_width=14.0)
+    scene = replace(base, features=(spur,), buildings=(), trees=())
+    db = tdb.open(tmp_path / "t.tdb", create=True)
+    ingest(sample(scene, density=4, seed=3), db, version="v", options=IngestOptions(exclude=()))
+
+    def found_near() -> float:
+        matches = find(db, "v", "ridge")
+        found = shapely.union_all([m.geometry for m in matches])
+        return float(found.intersection(spur.geometry.buffer(3.0)).length / spur.geometry.length)
+
+    assert found_near() < 0.1
+    monkeypatch.setattr(queries.match, "WIDE", 1)  # the usual band alone
+    assert found_near() > 0.3
