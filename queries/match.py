@@ -158,7 +158,8 @@ def match_tiles(  # noqa: PLR0913 (the tiles' three arrays, their lattice and th
 def _steady_along(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
     """Per match, whether its height (depth) keeps within ``flt.max_trend`` of itself along its
     line (:func:`queries.profile.height_trend`), read from cross-sections of the usual band and
-    of one :data:`WIDE` times as wide where a piece reads as wide as the usual band can see. A
+    of one :data:`WIDE` times as wide where the line reads as wide as the usual band can see (its
+    pieces' median width: one piece beside another form can read wide on its own). A
     natural spur widens downstream past that band: its fits there read the top of the form alone,
     which keeps about the same height as the spur grows; the wide band sees the spur's growth.
     Only lines long enough for a trend are measured."""
@@ -170,7 +171,7 @@ def _steady_along(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
             continue
         pieces = sections.of(k)
         steady[k] = not height_trend(pieces) > flt.max_trend  # NaN (no trend read) passes
-        if steady[k] and any(s.width >= 2 * BAND - WIDTH_STEP for s in pieces):  # as wide as the band sees
+        if steady[k] and width_of(pieces) >= 2 * BAND - WIDTH_STEP:  # as wide as the band sees
             steady[k] = not height_trend(sections.of(k, band=WIDE * BAND)) > flt.max_trend
     return steady
 
