@@ -140,8 +140,9 @@ def stretches(
     line: shapely.Geometry, nodes: Nodes, *, measure: Measure = Measure.DEPTH, band: float = BAND
 ) -> list[Stretch]:
     """The stretches of one match's centre line (Multi)LineString with their cross-sections,
-    from the stored ``nodes`` around it. Pieces too short or too sparse to fit take the
-    length-weighted median of the match's measured ones."""
+    from the stored ``nodes`` around it, sampled ``band`` m either side (the terrain beside read
+    from half a metre beyond the band out to twice it; widths read up to twice the band). Pieces
+    too short or too sparse to fit take the length-weighted median of the match's measured ones."""
     sign = -measure.sign  # the cross-section is fitted as a valley: a ridge is turned over
     out: list[Stretch] = []
     for k, part in enumerate(getattr(line, "geoms", [line])):
