@@ -18,7 +18,17 @@ from queries.filters import (
     components,
     tile_lines,
 )
-from queries.profile import BAND, MIN_TREND_PIECES, PIECE, Nodes, Stretch, height_trend, stretches, width_of
+from queries.profile import (
+    BAND,
+    MIN_TREND_PIECES,
+    PIECE,
+    Nodes,
+    Stretch,
+    height_trend,
+    side_of,
+    stretches,
+    width_of,
+)
 from queries.relief import tile_relief, two_sided_relief
 from queries.shoulder import shoulders
 from tdb.database import Database
@@ -94,7 +104,8 @@ def find(
     evidence = candidates(xg, yg, code, flt, lv)
     if not np.logical_or(*evidence).any():
         return []
-    grow = SPREAD_READ * REACH_TILES * lv + lv
+    # the nodes the reliefs read twice as far off, and the wide cross-sections, need (_steady_along)
+    grow = max(SPREAD_READ * REACH_TILES * lv, side_of(WIDE * BAND)[1]) + lv
     px, py, pz, _ = db.points(
         version,
         level=lv,

@@ -212,9 +212,15 @@ def _steady(pieces: list[Stretch], *, reach: int = NEIGHBOURS) -> list[Stretch]:
     return out
 
 
+def side_of(band: float) -> tuple[float, float]:
+    """How far off the line (m) the terrain beside a cross-section of ``band`` is read: from half
+    a metre beyond the band out to twice it (:data:`SIDE` for the usual band)."""
+    return band + SIDE[0] - BAND, band * SIDE[1] / BAND
+
+
 def _cross_section(piece: shapely.LineString, nodes: Nodes, sign: float, band: float) -> tuple[float, float]:
     points, x, y, z = nodes.points, nodes.x, nodes.y, nodes.z
-    side = (band + SIDE[0] - BAND, band * SIDE[1] / BAND)  # the terrain beside, as far out as the band
+    side = side_of(band)
     idx = nodes.tree.query(piece, predicate="dwithin", distance=side[1])
     at = shapely.line_locate_point(piece, points[idx])
     inner = (at > 0.01) & (at < piece.length - 0.01)  # beside the piece, not beyond its ends
