@@ -9,14 +9,17 @@ spurs at its junctions cut off, is the line a surveyor would draw.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import shapely
 from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import minimum_spanning_tree
+from scipy.sparse.csgraph import connected_components, dijkstra, minimum_spanning_tree
 from scipy.spatial import cKDTree
 
 SPUR_ROUNDS = 2  # spur edges cut, one layer per round
+_COS45 = float(np.sqrt(0.5))
 
 
 def centrelines(
@@ -67,3 +70,80 @@ def elongation(x: NDArray[np.float64], y: NDArray[np.float64], *, level: float) 
     c = np.asarray(rect.exterior.coords)
     sides = np.hypot(*(c[1:3] - c[0:2]).T)
     return float(sides.max() / max(float(sides.min()), level))
+
+
+def branches(
+    x: NDArray[np.float64], y: NDArray[np.float64], *, link: float, reach: float
+) -> list[NDArray[np.intp]]:
+    """The points (x, y) of one object split where distinct lines meet: at a junction of its
+    spanning tree (points joined at most ``link`` apart) from which three or more arms run at
+    least ``reach`` on, headed more than 45° apart. Each branch's point indices; the junction's
+    points belong to every arm that leaves them. Points the tree cannot join (a group of tiles
+    within reach of each other can hold lines farther apart than ``link``) are separate lines as
+    well. Arms shorter than ``reach`` are left out; one branch of every point where the tree is
+    one line.
+
+    Two ridges that cross or meet are one group of touching tiles, but neither its outline nor
+    the height along it is that of one form: each arm is.
+    """
+    everything = [np.arange(len(x))]
+    if len(x) < 4:
+        return everything
+    pts, inverse = np.unique(np.column_stack([np.round(x, 6), np.round(y, 6)]), axis=0, return_inverse=True)
+    pairs = cKDTree(pts).query_pairs(link, output_type="ndarray")
+    length = np.hypot(*(pts[pairs[:, 0]] - pts[pairs[:, 1]]).T)
+    mst = minimum_spanning_tree(coo_matrix((length, (pairs[:, 0], pairs[:, 1])), shape=(len(pts),) * 2))
+    tree = (mst + mst.T).tocsr()
+    degree = np.diff(tree.indptr)
+    cut = [j for j in np.flatnonzero(degree >= 3) if _meets(_headings(tree, pts, int(j), reach))]
+    rest = tree.tolil()
+    for j in cut:
+        rest[j, :] = 0
+        rest[:, j] = 0
+    count, label = connected_components(rest.tocsr(), directed=False)
+    if count == 1:
+        return everything
+    out = []
+    for arm in range(count):
+        members = np.flatnonzero(label == arm)
+        if np.isin(members, cut).any():
+            continue  # a junction point left on its own
+        ends = np.unique(tree[members][:, cut].nonzero()[1])
+        members = np.concatenate([members, np.asarray(cut, dtype=np.intp)[ends]])
+        if _extent(pts[members]) >= reach:
+            out.append(np.flatnonzero(np.isin(inverse.ravel(), members)))
+    return out or everything
+
+
+def _headings(tree: Any, pts: NDArray[np.float64], j: int, reach: float) -> list[NDArray[np.float64]]:
+    """The headings (unit vectors) of the arms leaving point ``j`` of a spanning tree (CSR, both
+    directions) of ``pts`` that run at least ``reach`` on from it along the tree, each towards
+    its point ``reach`` along; longest arm first."""
+    dist = dijkstra(tree, indices=j)
+    rest = tree.tolil()
+    rest[j, :] = 0
+    rest[:, j] = 0
+    _, label = connected_components(rest.tocsr(), directed=False)
+    ends = []
+    for arm in label[tree[j].nonzero()[1]]:
+        members = np.flatnonzero(label == arm)
+        far = float(dist[members].max())
+        heading = pts[members[np.argmin(np.abs(dist[members] - reach))]] - pts[j]
+        if far >= reach and heading.any():
+            ends.append((far, heading / np.hypot(*heading)))
+    return [h for _, h in sorted(ends, key=lambda e: -e[0])]
+
+
+def _meets(headings: list[NDArray[np.float64]]) -> bool:
+    """Whether arms with these headings are distinct lines meeting: three or more headed more
+    than 45° apart. A line two tiles wide spans a ladder whose rungs are junctions, but every
+    arm of a rung heads along the line."""
+    distinct: list[NDArray[np.float64]] = []
+    for h in headings:
+        if all(float(h @ other) < _COS45 for other in distinct):
+            distinct.append(h)
+    return len(distinct) >= 3
+
+
+def _extent(pts: NDArray[np.float64]) -> float:
+    return float(np.hypot(*(pts.max(axis=0) - pts.min(axis=0))))

@@ -8,7 +8,7 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
-from queries.centreline import centrelines, elongation
+from queries.centreline import branches, centrelines, elongation
 from queries.filters import (
     BREAK_LINES,
     Filter,
@@ -41,6 +41,7 @@ LINK_TILES = 3.0  # extreme nodes of touching tiles lie at most 2√2 tiles apar
 TILE_SHARE = 0.5  # a tile joins an object when its own relief reaches this share of min_measure
 WIDE = 2  # the band of a form's second trend reading, in usual bands (_steady_along)
 WIDTH_STEP = 0.05  # m: a fitted width this close to the band's limit reads at the limit
+ARM = PIECE  # m: an arm of a group is a line of its own where it runs at least this far from the junction
 SPREAD_READ = 2  # a form's spread: its relief read this many times farther off than its relief (max_spread)
 
 
@@ -118,12 +119,48 @@ def find(
 @dataclass(frozen=True)
 class _Candidates:
     """The tiles that stand out enough to join an object: indices into the tiles given, their
-    relief and extreme nodes, and the objects they group into (each: its tiles, its measure)."""
+    relief, extreme nodes and relief read farther off (None where the filter reads none), and
+    the objects they group into (each: its tiles, its measure)."""
 
     keep: NDArray[np.intp]
     ex: NDArray[np.float64]
     ey: NDArray[np.float64]
+    relief: NDArray[np.float64]
+    wide: NDArray[np.float64] | None
     objects: list[tuple[NDArray[np.intp], float]]
+
+    def measured(self, g: NDArray[np.intp], flt: Filter, *, level: int) -> float | None:
+        """The measure of the group ``g`` (indices into the kept tiles), None where it is not
+        an object of the filter: too low, or for a line too compact or too spread."""
+        relief = self.relief[g]
+        if not np.isfinite(relief).any():
+            measure = float("nan")
+        else:  # a closed form stands out most at its top (bottom); a line is measured along it
+            measure = float(np.nanmax(relief) if flt.around else np.nanmedian(relief))
+        if measure < flt.min_measure:  # NaN (no relief measured) is kept
+            return None
+        if flt.linear and elongation(self.ex[g], self.ey[g], level=level) < flt.min_elongation:
+            return None
+        if (
+            self.wide is not None
+            and flt.max_spread is not None
+            and _spread(self.wide[g], measure) > flt.max_spread
+        ):
+            return None
+        return measure
+
+    def arms(self, g: NDArray[np.intp], flt: Filter, *, level: int) -> list[tuple[NDArray[np.intp], float]]:
+        """The arms of the group ``g`` that are objects of the filter, where lines at least
+        :data:`ARM` long meet in it or lie apart (:func:`queries.centreline.branches`); none where
+        the group is one line.
+        Two lines that meet are one group of touching tiles, but neither its outline nor the
+        height along it is that of one form: each arm's is."""
+        if not _line_with_sides(flt):
+            return []
+        parts = branches(self.ex[g], self.ey[g], link=(LINK_TILES + flt.gap) * level, reach=ARM)
+        if len(parts) == 1 and len(parts[0]) == len(g):
+            return []
+        return [(g[p], m) for p in parts if (m := self.measured(g[p], flt, level=level)) is not None]
 
 
 def match_tiles(  # noqa: PLR0913 (the tiles' three arrays, their lattice and the filter)
@@ -148,22 +185,41 @@ def match_tiles(  # noqa: PLR0913 (the tiles' three arrays, their lattice and th
             Match(flt.name, level, found.keep[g], shapely.GeometryCollection(), float("nan"), m)
             for g, m in found.objects
         ]
-    geoms = _centre_lines(found, flt, level=level)
-    shoulder = np.full(len(found.objects), np.nan)
+    out, failed = _lines(found.objects, found, lattice, (xg, yg, code), flt, level=level)
+    # A line that fails as a whole may be lines that meet: each arm is judged alone.
+    arms = [arm for g, _ in failed for arm in found.arms(g, flt, level=level)]
+    return out + _lines(arms, found, lattice, (xg, yg, code), flt, level=level)[0]
+
+
+def _lines(
+    objects: list[tuple[NDArray[np.intp], float]],
+    found: _Candidates,
+    lattice: NodeLattice,
+    tiles: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]],
+    flt: Filter,
+    *,
+    level: int,
+) -> tuple[list[Match], list[tuple[NDArray[np.intp], float]]]:
+    """The matches among ``objects`` whose centre lines pass the filter's shoulder and height
+    trend tests, and the objects that fail them."""
+    geoms = _centre_lines(objects, found, flt, level=level)
+    shoulder = np.full(len(objects), np.nan)
     if _line_with_sides(flt) and (flt.min_shoulder is not None or flt.max_shoulder is not None):
-        shoulder = shoulders(lattice, geoms, np.array([m for _, m in found.objects]), measure=flt.measure)
+        shoulder = shoulders(lattice, geoms, np.array([m for _, m in objects]), measure=flt.measure)
     sections = _Sections(lattice, geoms, flt.measure)
     broad = _broad(sections, shoulder, flt)
     steady = _steady_along(sections, flt)
+    xg, yg, code = tiles
     kx, ky, kc = xg[found.keep], yg[found.keep], code[found.keep]
-    out = []
-    for (g, measure), geom, sh, wide, keeps_height in zip(found.objects, geoms, shoulder, broad, steady):
+    out, failed = [], []
+    for (g, measure), geom, sh, wide, keeps_height in zip(objects, geoms, shoulder, broad, steady):
         if not (_shoulder_passes(flt, sh, wide) and keeps_height):
+            failed.append((g, measure))
             continue
         shaped = _shape(geom, kx[g], ky[g], kc[g], flt, level=level)
         if shaped is not None:
             out.append(Match(flt.name, level, found.keep[g], shaped, _length(shaped, flt), measure, float(sh)))
-    return out
+    return out, failed
 
 
 def _steady_along(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
@@ -208,7 +264,7 @@ def _objects(
     cand = np.flatnonzero(own | facing)
     if len(cand) == 0:
         empty = np.zeros(0)
-        return _Candidates(cand, empty, empty, [])
+        return _Candidates(cand, empty, empty, empty, None, [])
     # A pair of facing planes is weaker evidence than a valley in a tile: it must stand out by
     # the filter's whole measure, not a share of it, or gentle hollows chain distinct forms
     share = np.where(own[cand], TILE_SHARE, 1.0)
@@ -227,20 +283,11 @@ def _objects(
     keep, relief, ex, ey = cand[ok], relief[ok], ex[ok], ey[ok]
     groups = components(xg[keep], yg[keep], code[keep], flt, level, accept=np.ones(len(keep), bool))
     wide = _relief_farther(lattice, ex, ey, code[keep], flt, level=level)
-    found: list[tuple[NDArray[np.intp], float]] = []
+    found = _Candidates(keep, ex, ey, relief, wide, [])
     for g in groups:
-        if not np.isfinite(relief[g]).any():
-            measure = float("nan")
-        else:  # a closed form stands out most at its top (bottom); a line is measured along it
-            measure = float(np.nanmax(relief[g]) if flt.around else np.nanmedian(relief[g]))
-        if measure < flt.min_measure:  # NaN (no relief measured) is kept
-            continue
-        if flt.linear and elongation(ex[g], ey[g], level=level) < flt.min_elongation:
-            continue
-        if wide is not None and flt.max_spread is not None and _spread(wide[g], measure) > flt.max_spread:
-            continue
-        found.append((g, measure))
-    return _Candidates(keep, ex, ey, found)
+        measure = found.measured(g, flt, level=level)
+        found.objects.extend([(g, measure)] if measure is not None else found.arms(g, flt, level=level))
+    return found
 
 
 def _relief_farther(
@@ -269,15 +316,17 @@ def _spread(wide: NDArray[np.float64], measure: float) -> float:
     return float(np.nanmedian(wide)) / measure
 
 
-def _centre_lines(found: _Candidates, flt: Filter, *, level: int) -> list[shapely.Geometry]:
+def _centre_lines(
+    objects: list[tuple[NDArray[np.intp], float]], found: _Candidates, flt: Filter, *, level: int
+) -> list[shapely.Geometry]:
     """Each object's line through its tiles' extreme nodes; empty for steps (their polygons or
     break lines come from the tiles)."""
     if not _line_with_sides(flt):
-        return [shapely.LineString()] * len(found.objects)
-    owner = np.repeat(np.arange(len(found.objects)), [len(g) for g, _ in found.objects])
-    tiles = np.concatenate([g for g, _ in found.objects]) if found.objects else np.zeros(0, np.intp)
+        return [shapely.LineString()] * len(objects)
+    owner = np.repeat(np.arange(len(objects)), [len(g) for g, _ in objects])
+    tiles = np.concatenate([g for g, _ in objects]) if objects else np.zeros(0, np.intp)
     link = (LINK_TILES + flt.gap) * level
-    return centrelines(found.ex[tiles], found.ey[tiles], owner, link=link, count=len(found.objects))
+    return centrelines(found.ex[tiles], found.ey[tiles], owner, link=link, count=len(objects))
 
 
 def _shoulder_passes(flt: Filter, shoulder: float, wide: bool) -> bool:

@@ -19,7 +19,7 @@ from tdb.options import Measure
 from tdb.tiles import SUBGRID, NodeLattice, tile_key
 
 _COS45 = float(np.sqrt(0.5))
-PLANAR = 0.5  # ring_relief: a ring is a plane where no tile strays from it by half the relief
+PLANAR = 0.5  # terrain around a form is a plane where nothing strays from it by half the relief
 RING_SHARE = 0.35  # ring_relief: a closed form's least relief over the ring, as a share of its most
 _DIRS = np.array([[1.0, 0.0], [0.0, 1.0], [np.sqrt(0.5), np.sqrt(0.5)], [np.sqrt(0.5), -np.sqrt(0.5)]])
 
@@ -72,6 +72,13 @@ def two_sided_relief(
     beside it is unknown). ``Measure.STEP`` (an embankment's side) is the
     largest difference between the terrain on the two sides.
 
+    On a slope across the line the smaller difference is the relief less the slope's rise
+    over ``reach``. Where the terrain across is a plane, the relief is read against that
+    plane (the chord between the two sides): the terrain read again ``reach`` farther out on
+    each side keeps the chord's slope, straying from it by no more than :data:`PLANAR` of the
+    relief. A step, a rim or a bank has level ground beyond it on both sides, so its sides
+    are no plane, and it keeps the smaller difference.
+
     ``along`` (N, 2) gives each point's break line direction (NaN: none): directions
     closer than 45° to it are not read. Along its own line a ditch's rim or a wall's
     foot has the feature in the cells beside it and would seem to stand out.
@@ -81,14 +88,41 @@ def two_sided_relief(
     for dx, dy in _DIRS:
         a = lattice.corners(x + reach * dx, y + reach * dy)
         b = lattice.corners(x - reach * dx, y - reach * dy)
-        with np.errstate(invalid="ignore"):
-            rel = np.abs(a - b) if measure is Measure.STEP else np.minimum(sign * (z - a), sign * (z - b))
+        if measure is Measure.STEP:
+            with np.errstate(invalid="ignore"):
+                rel = np.abs(a - b)
+        else:
+            rel = _against_sides(lattice, x, y, z, a, b, (dx * reach, dy * reach), sign=sign)
         if along is not None:
             with np.errstate(invalid="ignore"):
                 rel = np.where(np.abs(along @ np.array([dx, dy])) > _COS45 + 1e-9, -np.inf, rel)
         best = np.fmax(best, rel)
     best[~np.isfinite(best)] = np.nan
     return best
+
+
+def _against_sides(  # noqa: PLR0913 (the point, its two sides and the step to them)
+    lattice: NodeLattice,
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    z: NDArray[np.float64],
+    a: NDArray[np.float64],
+    b: NDArray[np.float64],
+    step: tuple[float, float],
+    *,
+    sign: float,
+) -> NDArray[np.float64]:
+    """Relief of z against the terrain ``a`` one ``step`` ahead and ``b`` one behind: against
+    their chord where the terrain a step farther out on both sides keeps its slope, else the
+    smaller of the two differences (:func:`two_sided_relief`)."""
+    dx, dy = step
+    ahead = lattice.corners(x + 2 * dx, y + 2 * dy)
+    behind = lattice.corners(x - 2 * dx, y - 2 * dy)
+    with np.errstate(invalid="ignore"):
+        chord = sign * (z - (a + b) / 2)
+        rise = (a - b) / 2  # the chord's rise over one step
+        plane = (np.abs(ahead - a - rise) <= PLANAR * chord) & (np.abs(b - behind - rise) <= PLANAR * chord)
+        return np.where(plane, chord, np.minimum(sign * (z - a), sign * (z - b)))
 
 
 def ring_relief(

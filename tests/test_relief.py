@@ -65,6 +65,37 @@ def test_a_ditch_or_bank_on_a_slope_stands_out_by_its_depth(size, gx, gy, y0, me
     assert np.all(rel[far] < 1e-9)  # a plane has no relief; on a tilted one it is negative
 
 
+@settings(max_examples=25, deadline=None)
+@given(st.floats(0.3, 2.0), st.floats(-0.25, 0.25), st.floats(16.0, 24.0), st.sampled_from([-1.0, 1.0]))
+def test_on_a_slope_across_it_a_bank_reads_its_whole_height(size, gy, y0, sign):
+    # The terrain across the bank is a plane: the relief is read against it, not against its
+    # uphill side (which would take the slope's rise over the reach off the height).
+    measure = Measure.HEIGHT if sign > 0 else Measure.DEPTH
+
+    def fn(x, y):
+        return 100 + gy * y + sign * size * np.clip(1 - np.abs(y - y0) / 1.0, 0, None)
+
+    _, yg, rel = relief(fn, measure)
+    inside = (yg < y0) & (y0 < yg + LEVEL)
+    # the crest lies between nodes: the nearest is at most half a node spacing down its flank,
+    # and the extreme node picked may be its neighbour, up to |gy| × S off
+    assert np.all(rel[inside] > size * (1 - S / 2) - abs(gy) * S - 1e-9)
+    assert np.all(rel[inside] < size + abs(gy) * S + 1e-9)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(0.5, 2.0), st.floats(0.0, 0.15), st.sampled_from([Measure.DEPTH, Measure.HEIGHT]))
+def test_a_step_on_a_slope_is_still_no_ridge_nor_ditch(size, gy, measure):
+    # A field edge on land rising the bank's way (land falling into a bank's foot makes a true
+    # hollow there): beyond the bank both fields keep the land's slope, which the chord across
+    # the bank does not; so the relief stays the smaller difference.
+    def fn(x, y):
+        return 50 + gy * y + np.clip((y - 19) / 2, 0, 1) * size
+
+    _, _, rel = relief(fn, measure)
+    assert np.nanmax(rel) <= 0.25 * size + 1e-9
+
+
 @pytest.mark.parametrize("measure", [Measure.DEPTH, Measure.HEIGHT])
 def test_a_step_has_no_depth_nor_height_but_a_step_measure(measure):
     # A 1 m step (an embankment's side, a ditch rim at a terrace) along y = 20.
