@@ -87,7 +87,7 @@ def branches(
     the height along it is that of one form: each arm is.
     """
     everything = [np.arange(len(x))]
-    if len(x) < 4:
+    if len(x) < 4 or _extent(np.column_stack([x, y])) < reach:  # no arm can run that far
         return everything
     pts, inverse = np.unique(np.column_stack([np.round(x, 6), np.round(y, 6)]), axis=0, return_inverse=True)
     pairs = cKDTree(pts).query_pairs(link, output_type="ndarray")
@@ -117,16 +117,17 @@ def branches(
 
 def _headings(tree: Any, pts: NDArray[np.float64], j: int, reach: float) -> list[NDArray[np.float64]]:
     """The headings (unit vectors) of the arms leaving point ``j`` of a spanning tree (CSR, both
-    directions) of ``pts`` that run at least ``reach`` on from it along the tree, each towards
-    its point ``reach`` along; longest arm first."""
-    dist = dijkstra(tree, indices=j)
-    rest = tree.tolil()
-    rest[j, :] = 0
-    rest[:, j] = 0
-    _, label = connected_components(rest.tocsr(), directed=False)
+    directions, edges shorter than ``reach``) of ``pts`` that run at least ``reach`` on from it
+    along the tree, each towards its point ``reach`` along; longest arm first."""
+    dist, pred = dijkstra(tree, indices=j, limit=2 * reach, return_predecessors=True)
+    near = np.flatnonzero(np.isfinite(dist))
+    near = near[near != j]
+    arm = near.copy()  # each point's first step from j, found by walking back towards j
+    while (back := pred[arm] != j).any():
+        arm[back] = pred[arm[back]]
     ends = []
-    for arm in label[tree[j].nonzero()[1]]:
-        members = np.flatnonzero(label == arm)
+    for first in np.unique(arm):
+        members = near[arm == first]
         far = float(dist[members].max())
         heading = pts[members[np.argmin(np.abs(dist[members] - reach))]] - pts[j]
         if far >= reach and heading.any():
