@@ -153,6 +153,7 @@ class _Candidates:
         """The arms of the group ``g`` that are objects of the filter, where lines at least
         :data:`ARM` long meet in it or lie apart (:func:`queries.centreline.branches`); none where
         the group is one line.
+
         Two lines that meet are one group of touching tiles, but neither its outline nor the
         height along it is that of one form: each arm's is."""
         if not _line_with_sides(flt):
