@@ -34,11 +34,7 @@ def centrelines(
     """
     keyed = np.unique(np.column_stack([group, np.round(x, 6), np.round(y, 6)]), axis=0)
     owner, pts = keyed[:, 0].astype(np.intp), keyed[:, 1:]
-    pairs = cKDTree(pts).query_pairs(link, output_type="ndarray")
-    pairs = pairs[owner[pairs[:, 0]] == owner[pairs[:, 1]]]
-    length = np.hypot(*(pts[pairs[:, 0]] - pts[pairs[:, 1]]).T)
-    graph = coo_matrix((length, (pairs[:, 0], pairs[:, 1])), shape=(len(pts), len(pts)))
-    mst = minimum_spanning_tree(graph).tocoo()
+    mst = _spanning_tree(pts, link, owner=owner).tocoo()
     a, b = mst.row, mst.col
     for _ in range(SPUR_ROUNDS):
         degree = np.bincount(np.concatenate([a, b]), minlength=len(pts))
@@ -72,6 +68,16 @@ def elongation(x: NDArray[np.float64], y: NDArray[np.float64], *, level: float) 
     return float(sides.max() / max(float(sides.min()), level))
 
 
+def _spanning_tree(pts: NDArray[np.float64], link: float, *, owner: NDArray[np.intp] | None = None) -> Any:
+    """The minimum spanning forest (sparse, one direction) of the points ``pts`` joined at most
+    ``link`` apart, and only within the same ``owner`` where given."""
+    pairs = cKDTree(pts).query_pairs(link, output_type="ndarray")
+    if owner is not None:
+        pairs = pairs[owner[pairs[:, 0]] == owner[pairs[:, 1]]]
+    length = np.hypot(*(pts[pairs[:, 0]] - pts[pairs[:, 1]]).T)
+    return minimum_spanning_tree(coo_matrix((length, (pairs[:, 0], pairs[:, 1])), shape=(len(pts), len(pts))))
+
+
 def branches(
     x: NDArray[np.float64], y: NDArray[np.float64], *, link: float, reach: float
 ) -> list[NDArray[np.intp]]:
@@ -90,9 +96,7 @@ def branches(
     if len(x) < 4 or _extent(np.column_stack([x, y])) < reach:  # no arm can run that far
         return everything
     pts, inverse = np.unique(np.column_stack([np.round(x, 6), np.round(y, 6)]), axis=0, return_inverse=True)
-    pairs = cKDTree(pts).query_pairs(link, output_type="ndarray")
-    length = np.hypot(*(pts[pairs[:, 0]] - pts[pairs[:, 1]]).T)
-    mst = minimum_spanning_tree(coo_matrix((length, (pairs[:, 0], pairs[:, 1])), shape=(len(pts),) * 2))
+    mst = _spanning_tree(pts, link)
     tree = (mst + mst.T).tocsr()
     degree = np.diff(tree.indptr)
     cut = [j for j in np.flatnonzero(degree >= 3) if _meets(_headings(tree, pts, int(j), reach))]

@@ -86,17 +86,19 @@ def two_sided_relief(
     sign = measure.sign
     best = np.full(len(x), -np.inf)
     for dx, dy in _DIRS:
-        a = lattice.corners(x + reach * dx, y + reach * dy)
-        b = lattice.corners(x - reach * dx, y - reach * dy)
+        k = np.arange(len(x))
+        if along is not None:  # NaN (no line) reads every direction
+            with np.errstate(invalid="ignore"):
+                k = k[~(np.abs(along @ np.array([dx, dy])) > _COS45 + 1e-9)]
+        px, py = x[k], y[k]
+        a = lattice.corners(px + reach * dx, py + reach * dy)
+        b = lattice.corners(px - reach * dx, py - reach * dy)
         if measure is Measure.STEP:
             with np.errstate(invalid="ignore"):
                 rel = np.abs(a - b)
         else:
-            rel = _against_sides(lattice, x, y, z, a, b, (dx * reach, dy * reach), sign=sign)
-        if along is not None:
-            with np.errstate(invalid="ignore"):
-                rel = np.where(np.abs(along @ np.array([dx, dy])) > _COS45 + 1e-9, -np.inf, rel)
-        best = np.fmax(best, rel)
+            rel = _against_sides(lattice, px, py, z[k], a, b, (dx * reach, dy * reach), sign=sign)
+        best[k] = np.fmax(best[k], rel)
     best[~np.isfinite(best)] = np.nan
     return best
 

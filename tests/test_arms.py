@@ -55,7 +55,7 @@ def test_one_line_is_never_split(angle, curvature, length, spur):
 
 
 @pytest.mark.slow
-def test_ridges_that_cross_are_both_found(tmp_path):
+def test_ridges_that_cross_are_both_found(tmp_path, monkeypatch):
     base = make_scene(seed=2, size=160)
     x0, y0 = base.bounds[:2]
     one = shapely.LineString([(x0 + 25, y0 + 30), (x0 + 135, y0 + 130)])
@@ -72,10 +72,6 @@ def test_ridges_that_cross_are_both_found(tmp_path):
     matches = match.find(db, "v", "ridge")
     assert min(found(matches, one), found(matches, two)) > 0.8
     # The cross as one object is not elongated: without its arms, neither ridge is found.
-    whole = match._Candidates.arms
-    try:
-        match._Candidates.arms = lambda self, g, flt, *, level: []  # type: ignore[method-assign]
-        unsplit = match.find(db, "v", "ridge")
-    finally:
-        match._Candidates.arms = whole  # type: ignore[method-assign]
+    monkeypatch.setattr(match._Candidates, "arms", lambda self, g, flt, *, level: [])
+    unsplit = match.find(db, "v", "ridge")
     assert max(found(unsplit, one), found(unsplit, two)) < 0.5
