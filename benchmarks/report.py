@@ -700,7 +700,8 @@ def changes_section(out: list[str]) -> None:
         f"Mean recall {m['recall']:.2f}, precision {m['precision']:.2f}{strict(m)}; typed right "
         f"{m['typed_right']} of {m['changes']}. Target ≥ 0.9 each, every change typed right. Recall counts "
         "a true change's whole footprint, the feet of its flanks too, where the ground moved less than the "
-        "level of detection; regions are outlined by the nodes that moved beyond it. The recall of the "
+        "level of detection; regions are outlined by the LoD contour of the change, linear between nodes. "
+        "The recall of the "
         "ground that moved counts the part of the footprints where the true ground moved by 0.1 m or more, "
         "the bound under which the real pair's cells count as stable.",
         "",

@@ -35,8 +35,9 @@ from tdb.database import Database
 from tdb.evidence import GAP_SLOPE, MIN_SUPPORT, TileEvidence, supported_change
 from tdb.evidence import LEVEL as EVIDENCE_LEVEL
 from tdb.geojson import feature
+from tdb.outlines import outlines
 from tdb.surface import line_rebuild_at
-from tdb.tiles import SUBGRID, NodeLattice, key_pair, node_lattice, tile_key
+from tdb.tiles import SUBGRID, NodeLattice, node_lattice, tile_key
 
 MIN_LOD = 0.10
 # A region smaller than ``min_tiles`` (but of at least MIN_STRONG_TILES) counts when its mean
@@ -49,6 +50,7 @@ MIN_CLOSED_TILES = 2
 CLOSED_DZ = 2.0  # × LoD: the least mean change of such a region
 CLOSED = ("pit", "mound")
 MAX_LOOKUP = 50_000_000  # cells of _member's grid (50 MB)
+FINE = 4  # outline cells per node spacing: a quarter of a metre on 2 m tiles
 LINE_ELONGATION = 2.0  # a region less elongated than this is compact: no line's change
 RULES = (  # (filter, sign of dz, kind when the filter matches in the later version / in the earlier one)
     ("ditch", -1, "ditch dug", "ditch filled"),
@@ -422,21 +424,38 @@ def outline(
     *,
     level: int,
 ) -> shapely.Geometry:
-    """A region's outline at its node spacing: the cells (half a tile across, one per node) of
-    the nodes of its tiles ``xg``, ``yg`` that moved beyond their tile's ``lod`` the way the
-    region did (``dz``, tiles × 3 × 3 nodes); the tiles themselves where none did.
+    """A region's outline: the LoD contour of its height change, the way the region moved.
+
+    The change at its tiles' (``xg``, ``yg``) 3 × 3 nodes (``dz``, tiles × 9), over each tile's
+    ``lod``, runs linearly (bilinearly) between the nodes, as the surfaces rebuilt from kept points
+    do between their nodes; the outline holds the tiles' area where that ratio passes 1, drawn
+    on cells :data:`FINE` times finer than the nodes. The tiles themselves where no node moved.
 
     A tile moves when a third of its nodes do, so a tile on a region's edge holds ground that
-    stayed as well: its tiles outline a region wider than the change by up to a tile all round."""
-    with np.errstate(invalid="ignore"):
-        moved = (np.abs(dz) > lod[:, None]) & (np.sign(dz) == np.sign(mean_dz))
-    if not moved.any():
+    stayed as well; and where the change falls off from a node far beyond the LoD to one within
+    it, the contour lies nearer the latter, not halfway."""
+    sign = np.sign(mean_dz)
+    ratio = np.nan_to_num(dz * sign / lod[:, None], nan=0.0)
+    if not (ratio > 1.0).any():
         return shapely.coverage_union_all(shapely.box(xg, yg, xg + level, yg + level))  # tiles never overlap
-    u, v = np.meshgrid([0, level // 2, level], [0, level // 2, level])
-    tile, node = np.nonzero(moved)
-    nx, ny = key_pair(np.unique(tile_key(xg[tile] + u.ravel()[node], yg[tile] + v.ravel()[node])))
-    r = level / 4
-    return shapely.coverage_union_all(shapely.box(nx - r, ny - r, nx + r, ny + r))  # one cell per node
+    half = level // 2
+    u, v = np.meshgrid([0, 1, 2], [0, 1, 2])
+    x0, y0 = int(xg.min()), int(yg.min())
+    ti, tj = (xg - x0) // level, (yg - y0) // level
+    ni, nj = (2 * ti[:, None] + u.ravel()).ravel(), (2 * tj[:, None] + v.ravel()).ravel()
+    shape = (2 * int(tj.max()) + 3, 2 * int(ti.max()) + 3)
+    total, count = np.zeros(shape), np.zeros(shape)
+    np.add.at(total, (nj, ni), ratio.ravel())  # a node shared by tiles takes their mean ratio
+    np.add.at(count, (nj, ni), 1.0)
+    nodes = total / np.maximum(count, 1.0)
+    t = (np.arange(FINE) + 0.5) / FINE
+    along = (nodes[:, :-1, None] * (1 - t) + nodes[:, 1:, None] * t).reshape(shape[0], -1)
+    fine = (along[:-1, None, :] * (1 - t)[:, None] + along[1:, None, :] * t[:, None]).reshape(-1, along.shape[1])
+    tile = np.zeros(((shape[0] - 1) // 2, (shape[1] - 1) // 2), bool)
+    tile[tj, ti] = True
+    inside = tile[np.arange(fine.shape[0]) // (2 * FINE)][:, np.arange(fine.shape[1]) // (2 * FINE)]
+    moved = np.where((fine > 1.0) & inside, 0, -1)
+    return outlines(moved, x0=float(x0), y0=float(y0), cell=half / FINE).get(0, shapely.Polygon())
 
 
 def _closed_form_changed(before: dict[str, float], after: dict[str, float], mean_dz: float) -> bool:

@@ -305,14 +305,48 @@ def test_no_tiles_to_judge_is_no_tile_moved() -> None:
     assert _may_move(empty, empty, np.zeros(0)).shape == (0,)
 
 
-def test_a_region_is_outlined_by_the_nodes_that_moved_its_way():
+def test_a_region_is_outlined_by_the_lod_contour_of_its_change():
     xg, yg = np.array([10, 12]), np.array([20, 20])
     dz = np.zeros((2, 9))
-    dz[0, [0, 3, 6]] = 0.5  # the first tile's west column of nodes rose
-    dz[0, 4] = -0.5  # its centre fell: against the region's rise
+    dz[0, [0, 3, 6]] = 1.0  # the first tile's west column of nodes rose, 5 × the LoD
     dz[1, 8] = 0.05  # within the LoD
     geom = outline(xg, yg, dz, np.array([0.2, 0.2]), 0.5, level=2)
-    assert geom.area == pytest.approx(3.0)  # three nodes' 1 m cells
-    assert geom.bounds == pytest.approx((9.5, 19.5, 10.5, 22.5))
+    # the change falls linearly to 0 a metre east: it passes the LoD at x = 10.8, drawn on 0.25 m cells
+    assert geom.bounds == pytest.approx((10.0, 20.0, 10.75, 22.0))
+    assert geom.area == pytest.approx(1.5)
+    # a node moved against the region's way is not part of it
+    dz[0, 4] = -1.0
+    geom = outline(xg, yg, dz, np.array([0.2, 0.2]), 0.5, level=2)
+    assert (
+        geom.area < 1.5
+        and not geom.contains(shapely.Point(10.6, 21.0))
+        and geom.contains(shapely.Point(10.1, 21.0))
+    )
     # where no node moved the region's way, its tiles outline it
-    assert outline(xg, yg, -dz, np.array([0.6, 0.6]), 0.5, level=2).area == pytest.approx(8.0)
+    assert outline(xg, yg, -np.abs(dz), np.array([0.6, 0.6]), 0.5, level=2).area == pytest.approx(8.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-1.0, 1.0), min_size=45, max_size=45), st.sampled_from([1.0, -1.0]))
+def test_the_outline_holds_exactly_where_the_interpolated_change_passes_the_lod(values, way):
+    from scipy.interpolate import RegularGridInterpolator
+
+    # four tiles in an L and a lone one: nodes shared between tiles carry one value
+    xg, yg = np.array([0, 2, 0, 6]), np.array([0, 0, 2, 0])
+    field = np.asarray(values).reshape(5, 9)  # nodes at 1 m, rows south to north
+    u, v = np.meshgrid([0, 1, 2], [0, 1, 2])
+    dz = field[yg[:, None] + v.ravel(), xg[:, None] + u.ravel()]
+    lod = np.full(4, 0.3)
+    geom = outline(xg, yg, dz, lod, way, level=2)
+    if not (dz * way > 0.3).any():
+        assert geom.area == pytest.approx(16.0)
+        return
+    fx, fy = np.meshgrid(np.arange(0.125, 8, 0.25), np.arange(0.125, 4, 0.25))
+    fx, fy = fx.ravel(), fy.ravel()
+    in_tiles = np.zeros(len(fx), bool)
+    for x, y in zip(xg, yg, strict=True):
+        in_tiles |= (fx > x) & (fx < x + 2) & (fy > y) & (fy < y + 2)
+    fx, fy = fx[in_tiles], fy[in_tiles]
+    interpolated = RegularGridInterpolator((np.arange(5.0), np.arange(9.0)), field * way / 0.3)((fy, fx))
+    clear = np.abs(interpolated - 1.0) > 1e-9  # a cell on the contour itself may go either way
+    assert np.array_equal(shapely.contains_xy(geom, fx, fy)[clear], interpolated[clear] > 1.0)

@@ -18,9 +18,9 @@ from scipy.spatial import cKDTree
 
 from ingest.ground.grids import Grid
 from ingest.objects.cover import BUILDING_CELL, Cover
-from ingest.objects.outline import outlines
 from tdb.cloud import BUILDING
 from tdb.objects import Building
+from tdb.outlines import outlines
 
 ROOF_TOP = 0.98  # quantile of the roof returns' heights taken as the roof's top (not an antenna)
 
@@ -84,4 +84,4 @@ def _footprint(
     if m == 0:
         return None
     largest = int(np.argmax(np.bincount(lab.ravel())[1:])) + 1
-    return outlines(np.where(lab == largest, 0, -1), fgrid).get(0)
+    return outlines(np.where(lab == largest, 0, -1), x0=fgrid.x0, y0=fgrid.y0, cell=fgrid.cell).get(0)

@@ -28,10 +28,10 @@ from ingest.objects.cover import Cover, cell_size
 from ingest.objects.crown_size import crown_diameters
 from ingest.objects.crowns import choose_scales
 from ingest.objects.heights import TopRaster
-from ingest.objects.outline import outlines
 from tdb.cloud import HIGH_VEGETATION, MEDIUM_VEGETATION, PointCloud
 from tdb.fill import fill_nearest
 from tdb.objects import Tree
+from tdb.outlines import outlines
 
 
 @dataclass(frozen=True)
@@ -140,7 +140,10 @@ def _measure(labels: NDArray[np.intp], top: TopRaster, xyz: NDArray[np.float64],
     height = np.full(n, np.nan)
     height[lab[order][last]] = h[order][last]
     keep = (cells >= min_cells) & (best >= 0)
-    shapes = outlines(np.where(keep[np.maximum(labels, 0)] & (labels >= 0), labels, -1), top.grid)
+    g = top.grid
+    shapes = outlines(
+        np.where(keep[np.maximum(labels, 0)] & (labels >= 0), labels, -1), x0=g.x0, y0=g.y0, cell=g.cell
+    )
     diameter = crown_diameters(labels, top.grid.cell)
     trees = [
         Tree(

@@ -1,4 +1,4 @@
-"""Outlines of labelled raster segments as polygons."""
+"""Outlines of labelled raster segments as polygons (GDAL's polygoniser, through rasterio)."""
 
 from __future__ import annotations
 
@@ -10,13 +10,12 @@ import shapely
 from affine import Affine
 from numpy.typing import NDArray
 
-from ingest.ground.grids import Grid
 
-
-def outlines(labels: NDArray[np.intp], grid: Grid) -> dict[int, Any]:
-    """Polygon of each label ≥ 0 (rows south to north on ``grid``), as a shapely geometry."""
+def outlines(labels: NDArray[np.integer], *, x0: float, y0: float, cell: float) -> dict[int, Any]:
+    """Polygon of each label ≥ 0 of a raster whose rows run south to north from the lower-left
+    corner (``x0``, ``y0``), cells ``cell`` metres square, as a shapely geometry."""
     rows = labels.shape[0]
-    transform = Affine(grid.cell, 0.0, grid.x0, 0.0, -grid.cell, grid.y0 + rows * grid.cell)
+    transform = Affine(cell, 0.0, x0, 0.0, -cell, y0 + rows * cell)
     north_up = labels[::-1].astype(np.int32)
     values: list[int] = []
     shells: list[NDArray[np.float64]] = []
