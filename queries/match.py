@@ -201,15 +201,15 @@ def _lines(
     *,
     level: int,
 ) -> tuple[list[Match], list[tuple[NDArray[np.intp], float]]]:
-    """The matches among ``objects`` whose centre lines pass the filter's shoulder and height
-    trend tests, and the objects that fail them."""
+    """The matches among ``objects`` whose centre lines pass the filter's shoulder, height trend
+    and width tests, and the objects that fail them."""
     geoms = _centre_lines(objects, found, flt, level=level)
     shoulder = np.full(len(objects), np.nan)
     if _line_with_sides(flt) and (flt.min_shoulder is not None or flt.max_shoulder is not None):
         shoulder = shoulders(lattice, geoms, np.array([m for _, m in objects]), measure=flt.measure)
     sections = _Sections(lattice, geoms, flt.measure)
     broad = _broad(sections, shoulder, flt)
-    steady = _steady_along(sections, flt)
+    steady = _steady_along(sections, flt) & _narrow(sections, flt)
     xg, yg, code = tiles
     kx, ky, kc = xg[found.keep], yg[found.keep], code[found.keep]
     out, failed = [], []
@@ -242,6 +242,23 @@ def _steady_along(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
         if steady[k] and width_of(pieces) >= 2 * BAND - WIDTH_STEP:  # as wide as the band sees
             steady[k] = not height_trend(sections.of(k, band=WIDE * BAND)) > flt.max_trend
     return steady
+
+
+def _narrow(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
+    """Per match, whether it is no wider than ``flt.max_width``. Measured only where its usual
+    cross-sections read it as wide as they can see, from ones :data:`WIDE` times as wide; where
+    these read it as wide as they can see as well, its feet were not found and it passes. A
+    spur, or a field edge whose terrace falls back behind its bank, is a crest the usual band
+    cannot see the feet of."""
+    narrow = np.ones(len(sections.geoms), bool)
+    if flt.max_width is None or not _line_with_sides(flt):
+        return narrow
+    for k in range(len(sections.geoms)):
+        if not width_of(sections.of(k)) >= 2 * BAND - WIDTH_STEP:  # NaN (no fit): not measured
+            continue
+        wide = width_of(sections.of(k, band=WIDE * BAND))
+        narrow[k] = not flt.max_width < wide < 2 * WIDE * BAND - WIDTH_STEP
+    return narrow
 
 
 def _line_with_sides(flt: Filter) -> bool:

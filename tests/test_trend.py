@@ -79,8 +79,10 @@ def test_the_ridge_filter_keeps_a_ridge_and_drops_a_spur_that_rises_as_it_widens
     matches = find(db, "v", flt)
     assert found_near(matches, ridge) > 0.8
     assert found_near(matches, spur) < 0.1
-    # without the test the spur is taken for a ridge: the test is what parts them
-    unbounded = find(db, "v", replace(flt, max_trend=None))
+    # the trend alone drops it (its widest stretch is wider than a ridge, too: max_width)
+    assert found_near(find(db, "v", replace(flt, max_width=None)), spur) < 0.1
+    # without the tests the spur is taken for a ridge: they are what parts them
+    unbounded = find(db, "v", replace(flt, max_trend=None, max_width=None))
     assert found_near(unbounded, spur) > 0.3
 
 
@@ -106,3 +108,34 @@ def test_a_spur_wider_than_the_usual_band_is_read_again_with_a_wider_one(tmp_pat
     assert found_near() < 0.1
     monkeypatch.setattr(queries.match, "WIDE", 1)  # the usual band alone
     assert found_near() > 0.3
+
+
+@pytest.mark.slow
+def test_the_ridge_filter_drops_a_crest_wider_than_a_ridge(tmp_path):
+    """A broad natural rise 0.9 m high and 9 m wide that keeps its size along its line: no trend
+    parts it from a ridge, but the usual 6 m cross-sections cannot see its feet, and ones twice as
+    wide find them farther apart than a ridge's (max_width). A spur's stretch, a field edge whose
+    terrace falls back behind its bank, read so."""
+    base = make_scene(seed=3, size=160)
+    x0, y0 = base.bounds[:2]
+
+    def line(y: float) -> shapely.LineString:
+        return shapely.LineString([(x0 + 15, y0 + y), (x0 + 145, y0 + y + 6)])
+
+    ridge = Feature("ridge", line(40), 0.8, 4.0, "U", 0)
+    rise = Feature("spur", line(105), 0.9, 9.0, "natural", 1)
+    scene = replace(base, features=(ridge, rise), buildings=(), trees=())
+    db = tdb.open(tmp_path / "t.tdb", create=True)
+    ingest(sample(scene, density=4, seed=3), db, version="v", options=IngestOptions(exclude=()))
+    flt = resolve("ridge")
+    assert flt.max_width is not None
+
+    def found_near(matches, feature: Feature) -> float:
+        found = shapely.union_all([m.geometry for m in matches])
+        return float(found.intersection(feature.geometry.buffer(4.0)).length / feature.geometry.length)
+
+    matches = find(db, "v", flt)
+    assert found_near(matches, ridge) > 0.8
+    assert found_near(matches, rise) < 0.1
+    # without the width test the rise is taken for a ridge: the test is what parts them
+    assert found_near(find(db, "v", replace(flt, max_width=None)), rise) > 0.5
