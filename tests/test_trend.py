@@ -55,35 +55,44 @@ def test_a_line_broken_at_junctions_is_read_along_its_main_axis():
     assert height_trend([*_pieces([1.0, 1.0, 1.0], parts=[0, 1, 2]), arm]) == 0.0
 
 
+BASE_SEED = 3
+
+
+def _across(y: float) -> shapely.LineString:
+    """A line 130 m long across the 160 m test scene, ``y`` m from its south edge."""
+    x0, y0 = make_scene(seed=BASE_SEED, size=160).bounds[:2]
+    return shapely.LineString([(x0 + 15, y0 + y), (x0 + 145, y0 + y + 6)])
+
+
+def _surveyed(path, *features: Feature):
+    """A database holding the 160 m test scene with only ``features`` on it, as version "v"."""
+    scene = replace(make_scene(seed=BASE_SEED, size=160), features=features, buildings=(), trees=())
+    db = tdb.open(path, create=True)
+    ingest(sample(scene, density=4, seed=BASE_SEED), db, version="v", options=IngestOptions(exclude=()))
+    return db
+
+
+def _found_near(matches, feature: Feature, *, within: float = 3.0) -> float:
+    """The length of ``matches`` within ``within`` m of ``feature``'s line, over that line's length."""
+    found = shapely.union_all([m.geometry for m in matches])
+    return float(found.intersection(feature.geometry.buffer(within)).length / feature.geometry.length)
+
+
 @pytest.mark.slow
 def test_the_ridge_filter_keeps_a_ridge_and_drops_a_spur_that_rises_as_it_widens(tmp_path):
-    base = make_scene(seed=3, size=160)
-    x0, y0 = base.bounds[:2]
-
-    def line(y: float) -> shapely.LineString:
-        return shapely.LineString([(x0 + 15, y0 + y), (x0 + 145, y0 + y + 6)])
-
-    ridge = Feature("ridge", line(40), 0.8, 4.0, "U", 0)
+    ridge = Feature("ridge", _across(40), 0.8, 4.0, "U", 0)
     # the rugged scenes' smallest spur: 0.4 m high and 4.5 m wide at its head, 1.2 m and 13 m at its foot
-    spur = Feature("spur", line(110), 0.45, 4.5, "natural", 1, end_size=1.25, end_width=12.5)
-    scene = replace(base, features=(ridge, spur), buildings=(), trees=())
-    db = tdb.open(tmp_path / "t.tdb", create=True)
-    ingest(sample(scene, density=4, seed=3), db, version="v", options=IngestOptions(exclude=()))
+    spur = Feature("spur", _across(110), 0.45, 4.5, "natural", 1, end_size=1.25, end_width=12.5)
+    db = _surveyed(tmp_path / "t.tdb", ridge, spur)
     flt = resolve("ridge")
     assert flt.max_trend is not None
-
-    def found_near(matches, feature: Feature) -> float:
-        found = shapely.union_all([m.geometry for m in matches])
-        return float(found.intersection(feature.geometry.buffer(3.0)).length / feature.geometry.length)
-
     matches = find(db, "v", flt)
-    assert found_near(matches, ridge) > 0.8
-    assert found_near(matches, spur) < 0.1
+    assert _found_near(matches, ridge) > 0.8
+    assert _found_near(matches, spur) < 0.1
     # the trend alone drops it (its widest stretch is wider than a ridge, too: max_width)
-    assert found_near(find(db, "v", replace(flt, max_width=None)), spur) < 0.1
+    assert _found_near(find(db, "v", replace(flt, max_width=None)), spur) < 0.1
     # without the tests the spur is taken for a ridge: they are what parts them
-    unbounded = find(db, "v", replace(flt, max_trend=None, max_width=None))
-    assert found_near(unbounded, spur) > 0.3
+    assert _found_near(find(db, "v", replace(flt, max_trend=None, max_width=None)), spur) > 0.3
 
 
 @pytest.mark.slow
@@ -92,22 +101,11 @@ def test_a_spur_wider_than_the_usual_band_is_read_again_with_a_wider_one(tmp_pat
     alone, about as high all along (a trend of 0.28); fits twice as wide see it grow (0.6)."""
     import queries.match
 
-    base = make_scene(seed=3, size=160)
-    x0, y0 = base.bounds[:2]
-    line = shapely.LineString([(x0 + 15, y0 + 80), (x0 + 145, y0 + 86)])
-    spur = Feature("spur", line, 0.4, 5.0, "natural", 1, end_size=1.2, end_width=14.0)
-    scene = replace(base, features=(spur,), buildings=(), trees=())
-    db = tdb.open(tmp_path / "t.tdb", create=True)
-    ingest(sample(scene, density=4, seed=3), db, version="v", options=IngestOptions(exclude=()))
-
-    def found_near() -> float:
-        matches = find(db, "v", "ridge")
-        found = shapely.union_all([m.geometry for m in matches])
-        return float(found.intersection(spur.geometry.buffer(3.0)).length / spur.geometry.length)
-
-    assert found_near() < 0.1
+    spur = Feature("spur", _across(80), 0.4, 5.0, "natural", 1, end_size=1.2, end_width=14.0)
+    db = _surveyed(tmp_path / "t.tdb", spur)
+    assert _found_near(find(db, "v", "ridge"), spur) < 0.1
     monkeypatch.setattr(queries.match, "WIDE", 1)  # the usual band alone
-    assert found_near() > 0.3
+    assert _found_near(find(db, "v", "ridge"), spur) > 0.3
 
 
 @pytest.mark.slow
@@ -116,26 +114,13 @@ def test_the_ridge_filter_drops_a_crest_wider_than_a_ridge(tmp_path):
     parts it from a ridge, but the usual 6 m cross-sections cannot see its feet, and ones twice as
     wide find them farther apart than a ridge's (max_width). A spur's stretch, a field edge whose
     terrace falls back behind its bank, read so."""
-    base = make_scene(seed=3, size=160)
-    x0, y0 = base.bounds[:2]
-
-    def line(y: float) -> shapely.LineString:
-        return shapely.LineString([(x0 + 15, y0 + y), (x0 + 145, y0 + y + 6)])
-
-    ridge = Feature("ridge", line(40), 0.8, 4.0, "U", 0)
-    rise = Feature("spur", line(105), 0.9, 9.0, "natural", 1)
-    scene = replace(base, features=(ridge, rise), buildings=(), trees=())
-    db = tdb.open(tmp_path / "t.tdb", create=True)
-    ingest(sample(scene, density=4, seed=3), db, version="v", options=IngestOptions(exclude=()))
+    ridge = Feature("ridge", _across(40), 0.8, 4.0, "U", 0)
+    rise = Feature("spur", _across(105), 0.9, 9.0, "natural", 1)
+    db = _surveyed(tmp_path / "t.tdb", ridge, rise)
     flt = resolve("ridge")
     assert flt.max_width is not None
-
-    def found_near(matches, feature: Feature) -> float:
-        found = shapely.union_all([m.geometry for m in matches])
-        return float(found.intersection(feature.geometry.buffer(4.0)).length / feature.geometry.length)
-
     matches = find(db, "v", flt)
-    assert found_near(matches, ridge) > 0.8
-    assert found_near(matches, rise) < 0.1
+    assert _found_near(matches, ridge, within=4.0) > 0.8
+    assert _found_near(matches, rise, within=4.0) < 0.1
     # without the width test the rise is taken for a ridge: the test is what parts them
-    assert found_near(find(db, "v", replace(flt, max_width=None)), rise) > 0.5
+    assert _found_near(find(db, "v", replace(flt, max_width=None)), rise, within=4.0) > 0.5
