@@ -438,24 +438,34 @@ def outline(
     ratio = np.nan_to_num(dz * sign / lod[:, None], nan=0.0)
     if not (ratio > 1.0).any():
         return shapely.coverage_union_all(shapely.box(xg, yg, xg + level, yg + level))  # tiles never overlap
-    half = level // 2
-    u, v = np.meshgrid([0, 1, 2], [0, 1, 2])
     x0, y0 = int(xg.min()), int(yg.min())
     ti, tj = (xg - x0) // level, (yg - y0) // level
-    ni, nj = (2 * ti[:, None] + u.ravel()).ravel(), (2 * tj[:, None] + v.ravel()).ravel()
-    shape = (2 * int(tj.max()) + 3, 2 * int(ti.max()) + 3)
-    total, count = np.zeros(shape), np.zeros(shape)
-    np.add.at(total, (nj, ni), ratio.ravel())  # a node shared by tiles takes their mean ratio
-    np.add.at(count, (nj, ni), 1.0)
-    nodes = total / np.maximum(count, 1.0)
-    t = (np.arange(FINE) + 0.5) / FINE
-    along = (nodes[:, :-1, None] * (1 - t) + nodes[:, 1:, None] * t).reshape(shape[0], -1)
-    fine = (along[:-1, None, :] * (1 - t)[:, None] + along[1:, None, :] * t[:, None]).reshape(-1, along.shape[1])
-    tile = np.zeros(((shape[0] - 1) // 2, (shape[1] - 1) // 2), bool)
+    fine = _bilinear(_node_grid(ti, tj, ratio), FINE)
+    tile = np.zeros((int(tj.max()) + 1, int(ti.max()) + 1), bool)
     tile[tj, ti] = True
     inside = tile[np.arange(fine.shape[0]) // (2 * FINE)][:, np.arange(fine.shape[1]) // (2 * FINE)]
     moved = np.where((fine > 1.0) & inside, 0, -1)
-    return outlines(moved, x0=float(x0), y0=float(y0), cell=half / FINE).get(0, shapely.Polygon())
+    return outlines(moved, x0=float(x0), y0=float(y0), cell=level / 2 / FINE).get(0, shapely.Polygon())
+
+
+def _node_grid(ti: NDArray[np.int64], tj: NDArray[np.int64], values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The tiles' (column ``ti``, row ``tj``) 3 × 3 node ``values`` on one grid of nodes, rows
+    south to north; a node shared by tiles takes their mean, a node of no tile 0."""
+    u, v = np.meshgrid([0, 1, 2], [0, 1, 2])
+    ni, nj = (2 * ti[:, None] + u.ravel()).ravel(), (2 * tj[:, None] + v.ravel()).ravel()
+    shape = (2 * int(tj.max()) + 3, 2 * int(ti.max()) + 3)
+    total, count = np.zeros(shape), np.zeros(shape)
+    np.add.at(total, (nj, ni), values.ravel())
+    np.add.at(count, (nj, ni), 1.0)
+    return total / np.maximum(count, 1.0)
+
+
+def _bilinear(nodes: NDArray[np.float64], fine: int) -> NDArray[np.float64]:
+    """``nodes`` interpolated bilinearly at the centres of ``fine`` × ``fine`` cells per square
+    between four nodes: (rows − 1) · fine × (columns − 1) · fine values."""
+    t = (np.arange(fine) + 0.5) / fine
+    along = (nodes[:, :-1, None] * (1 - t) + nodes[:, 1:, None] * t).reshape(nodes.shape[0], -1)
+    return (along[:-1, None, :] * (1 - t)[:, None] + along[1:, None, :] * t[:, None]).reshape(-1, along.shape[1])
 
 
 def _closed_form_changed(before: dict[str, float], after: dict[str, float], mean_dz: float) -> bool:
