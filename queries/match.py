@@ -239,7 +239,7 @@ def _steady_along(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
             continue
         pieces = sections.of(k)
         steady[k] = not height_trend(pieces) > flt.max_trend  # NaN (no trend read) passes
-        if steady[k] and width_of(pieces) >= 2 * BAND - WIDTH_STEP:  # as wide as the band sees
+        if steady[k] and _whole_band(pieces, BAND):
             steady[k] = not height_trend(sections.of(k, band=WIDE * BAND)) > flt.max_trend
     return steady
 
@@ -254,11 +254,17 @@ def _narrow(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
     if flt.max_width is None or not _line_with_sides(flt):
         return narrow
     for k in range(len(sections.geoms)):
-        if not width_of(sections.of(k)) >= 2 * BAND - WIDTH_STEP:  # NaN (no fit): not measured
+        if not _whole_band(sections.of(k), BAND):
             continue
-        wide = width_of(sections.of(k, band=WIDE * BAND))
-        narrow[k] = not flt.max_width < wide < 2 * WIDE * BAND - WIDTH_STEP
+        wide = sections.of(k, band=WIDE * BAND)
+        narrow[k] = not (width_of(wide) > flt.max_width and not _whole_band(wide, WIDE * BAND))
     return narrow
+
+
+def _whole_band(pieces: list[Stretch], band: float) -> bool:
+    """Whether the pieces (cross-sections of ``band`` m either side) read their line as wide as
+    they can see: its banks lie at or beyond the band (False where none was fitted)."""
+    return bool(width_of(pieces) >= 2 * band - WIDTH_STEP)
 
 
 def _line_with_sides(flt: Filter) -> bool:
