@@ -22,17 +22,6 @@ from tdb.tin import delaunay_mesh
 DEFAULT_RESOLUTION = 0.5
 
 
-def lowest_per_position(xyz: NDArray[np.float64], *, precision: float = 1e-3) -> NDArray[np.float64]:
-    """The points with one per plan position (to ``precision`` m): the lowest. Two returns of one
-    pulse often share a position; a triangulation keeps one of them by the points' order, so
-    the surface would depend on how the points were read (and on which block they fell in)."""
-    key = np.round(xyz[:, :2] / precision).astype(np.int64)
-    order = np.lexsort((xyz[:, 2], key[:, 1], key[:, 0]))
-    k = key[order]
-    first = np.r_[True, (k[1:] != k[:-1]).any(axis=1)]
-    return xyz[order[first]]
-
-
 def dense_model(
     ground_xyz: NDArray[np.float64],
     *,
@@ -53,7 +42,7 @@ def dense_model(
     """
     if resolution <= 0:
         raise InputError(f"resolution must be positive, got {resolution}")
-    xyz = lowest_per_position(np.asarray(ground_xyz, float))
+    xyz = np.asarray(ground_xyz, float)
     if bounds is None:
         lo, hi = column_range(xyz[:, :2])
         bounds = (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
@@ -78,9 +67,10 @@ def dense_model(
 def _long_facets(faces: NDArray[np.intp], xyz: NDArray[np.float64], max_edge: float | None) -> NDArray[np.bool_]:
     if max_edge is None:
         return np.zeros(len(faces), bool)
-    v = xyz[faces, :2]
+    x, y = xyz[:, 0], xyz[:, 1]
+    corners = np.ascontiguousarray(faces.T)
+    cx, cy = x[corners], y[corners]
     longest = np.zeros(len(faces))
     for a, b in ((0, 1), (1, 2), (2, 0)):
-        d = v[:, b] - v[:, a]
-        np.maximum(longest, d[:, 0] ** 2 + d[:, 1] ** 2, out=longest)
+        np.maximum(longest, (cx[b] - cx[a]) ** 2 + (cy[b] - cy[a]) ** 2, out=longest)
     return longest > max_edge**2

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
-from scipy.spatial import cKDTree
 
 from tdb.evidence import LEVEL, SUPPORT_SPACINGS, TileEvidence
+from tdb.kdtree import plan_tree
 from tdb.raster import Raster
 
 NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic's six terms
@@ -35,7 +35,7 @@ def envelope_lift(
     at = np.arange(len(xyz)) if at is None else np.asarray(at, np.intp)
     if len(xyz) < k:
         return np.zeros(len(at))
-    tree = cKDTree(xyz[:, :2])
+    tree = plan_tree(xyz[:, :2])
     out = np.empty(len(at))
     for s in range(0, len(at), CHUNK):
         p = xyz[at[s : s + CHUNK]]
@@ -253,7 +253,7 @@ def _node_gaps(
     beyond = np.zeros(touched.shape)
     if len(nj):
         nodes = np.column_stack([x0 + ni * float(step), y0 + nj * float(step)])
-        d, _ = cKDTree(g[:, :2]).query(nodes, k=1, distance_upper_bound=cap)
+        d, _ = plan_tree(g[:, :2]).query(nodes, k=1, distance_upper_bound=cap)
         beyond[nj, ni] = np.maximum(np.minimum(d, cap) - radius, 0.0)
     return beyond[rows, cols]
 

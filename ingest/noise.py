@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
+from tdb.kdtree import plan_tree
 from tdb.tiles import key_pair, tile_key
 
 MIN_FLAT = 0.10  # m: below this a threshold would call noise a form
@@ -47,7 +47,7 @@ def ground_noises(
     if len(xyz) <= k:
         return tuple(0.0 for _ in quantiles)
     pick = _sample(xyz, sample, seed)
-    _, nb = cKDTree(xyz[:, :2]).query(xyz[pick, :2], k=k)
+    _, nb = plan_tree(xyz[:, :2]).query(xyz[pick, :2], k=k)
     pts = xyz[nb]
     centred = pts - pts.mean(axis=1, keepdims=True)
     cov = centred.transpose(0, 2, 1) @ centred / (k - 3)

@@ -86,10 +86,15 @@ def delaunay_mesh(xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArra
     dt.snap_tolerance = SNAP
     dt.duplicates_handling = "Lowest"
     dt.insert(local, insertionstrategy="AsIs")
-    faces = np.asarray(dt.triangles, np.intp) - 1  # startinpy's vertex 0 is the one at infinity
+    faces = np.asarray(dt.triangles)  # a fresh array, its indices unsigned
+    faces = faces.view(np.intp) if faces.dtype.itemsize == np.dtype(np.intp).itemsize else faces.astype(np.intp)
+    faces -= 1  # startinpy's vertex 0 is the one at infinity
     if len(faces) == 0:
         raise DegenerateInputError(f"cannot triangulate {len(xyz)} points: they lie on one line")
-    return np.asarray(dt.points, np.float64)[1:] + origin, faces
+    # Where no position was merged the vertices are the inserted points, in their order;
+    # reading them back from startinpy costs as much as a tenth of the insertion.
+    merged = dt.number_of_vertices() != len(local)
+    return (np.asarray(dt.points, np.float64)[1:] if merged else local) + origin, faces
 
 
 def transforms(xy: NDArray[np.float64], simplices: NDArray[np.intp]) -> NDArray[np.float64]:

@@ -20,11 +20,12 @@ from numpy.typing import NDArray
 from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import Delaunay, QhullError, cKDTree
+from scipy.spatial import Delaunay, QhullError
 
 from ingest.ground.grids import CellSort, Grid, heights_of, lowest_per_cell, occupied_area
 from ingest.ground.morphology import progressive_opening
 from tdb.fill import fill_nearest
+from tdb.kdtree import plan_tree
 
 DENSITY_BLOCK = 4.0  # m: the blocks a survey's occupied area is counted in
 
@@ -77,7 +78,7 @@ def low_outliers(
         suspects = lowest[z < _block_floor(z, rank) - drop / 2]
         if len(suspects) == 0:
             break
-        _, nb = cKDTree(xyz[envelope, :2]).query(xyz[suspects, :2], k=k + 1)
+        _, nb = plan_tree(xyz[envelope, :2]).query(xyz[suspects, :2], k=k + 1)
         # the nearest hit is the point itself
         floor = np.sort(xyz[envelope[nb[:, 1:]], 2], axis=1)[:, rank - 1]
         new = suspects[xyz[suspects, 2] < floor - drop]
@@ -181,7 +182,7 @@ def ground_spikes(
     local = np.sort(order[near[cell]])
     if len(local) <= k:
         return out
-    dist, nb = cKDTree(xyz[local, :2]).query(xyz[cand, :2], k=k + 1)
+    dist, nb = plan_tree(xyz[local, :2]).query(xyz[cand, :2], k=k + 1)
     nb = local[nb]
     # the candidate itself is among them (at distance 0, maybe tied with a duplicate): skip it
     own = nb == cand[:, None]

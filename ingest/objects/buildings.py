@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 from ingest.ground.grids import Grid
 from ingest.objects.cover import BUILDING_CELL, Cover
 from tdb.cloud import BUILDING
+from tdb.kdtree import plan_tree
 from tdb.objects import Building
 from tdb.outlines import outlines
 
@@ -48,7 +49,7 @@ def find_buildings(
     roof = (cover.classes == BUILDING) & (region > 0)
     # Only the returns near a roof can be the nearest to a footprint cell.
     near = ndimage.binary_dilation(regions > 0, structure=np.ones((3, 3)), iterations=3).ravel()[cell_of]
-    tree = cKDTree(xyz[near, :2])
+    tree = plan_tree(xyz[near, :2])
     label = np.where(roof, region, 0)[near]
     # each region's roof returns, grouped once rather than found by a pass over all returns per region
     roofs = np.flatnonzero(roof)
