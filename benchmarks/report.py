@@ -412,6 +412,30 @@ def blocked_section(out: list[str]) -> None:
     out.append("")
 
 
+def block_memory_section(out: list[str]) -> None:
+    doc = _load("block_memory")
+    if doc is None:
+        return
+    out += [
+        "## A block's memory",
+        "",
+        "`python -m benchmarks.block_memory`: one block's read box modelled as a worker models it, each "
+        "in a fresh process; its peak RSS less its own after the read, beside what `ingest/block_size.py` "
+        "predicts from the box's area and points (the blocks' side is chosen so that the prediction "
+        f"stays within a worker's {doc['worker_memory_mib']:,.0f} MiB, {doc['worker_base_mib']:,.0f} MiB "
+        f"of it the worker's own). Machine: {_machine(doc)}.",
+        "",
+        "| case | points | read box km² | seconds | peak MiB | predicted MiB |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in doc["cases"]:
+        out.append(
+            f"| {r['case']} | {r['points']:,} | {r['km2']:.3f} | {r['seconds']:.1f} | {r['peak_mib']:,.0f} "
+            f"| {r['predicted_mib']:,.0f} |"
+        )
+    out.append("")
+
+
 def large_area_section(out: list[str]) -> None:
     docs = [json.loads(p.read_text()) for p in sorted(RESULTS.glob("large_area*.json"))]
     if not docs:
@@ -768,6 +792,7 @@ def main() -> None:
         peers_section,
         ingest_sites_section,
         blocked_section,
+        block_memory_section,
         large_area_section,
         big_db_section,
         dask_section,

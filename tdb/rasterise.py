@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 EDGE = 1e-9  # posts: a post this close to an edge counts as on it (round-off of the run's ends)
 CHUNK = 4_000_000  # posts per batch of runs (bounds the memory of the expansion)
+FACES = 1 << 19  # triangles per batch (bounds the memory of their corners and planes)
 
 
 @dataclass(frozen=True)
@@ -43,14 +44,28 @@ def rasterise(
     (V, 2) with heights ``z`` (V,), at the posts of ``grid``; NaN where no triangle covers a post."""
     out = np.full((grid.rows, grid.cols), np.nan)
     faces = np.asarray(faces, np.intp)
-    if len(faces) == 0:
-        return out
-    # grid coordinates: posts at whole numbers, v growing southward; corners (3, T), one row
-    # per corner, so that each corner's values lie together in memory
-    corners = np.ascontiguousarray(faces.T)
+    # grid coordinates: posts at whole numbers, v growing southward
     u = (np.asarray(xy[:, 0], float) - grid.x0) / grid.cell
     v = (grid.y0 - np.asarray(xy[:, 1], float)) / grid.cell
-    tu, tv, tz = u[corners], v[corners], np.asarray(z, float)[corners]
+    height = np.asarray(z, float)
+    for s in range(0, len(faces), FACES):
+        _triangles(faces[s : s + FACES], u, v, height, grid, out)
+    return out
+
+
+def _triangles(
+    faces: NDArray[np.intp],
+    u: NDArray[np.float64],
+    v: NDArray[np.float64],
+    z: NDArray[np.float64],
+    grid: PostGrid,
+    out: NDArray[np.float64],
+) -> None:
+    """Write the heights of one batch of triangles into ``out``, in batches of runs of about
+    :data:`CHUNK` posts."""
+    # corners (3, T), one row per corner, so that each corner's values lie together in memory
+    corners = np.ascontiguousarray(faces.T)
+    tu, tv, tz = u[corners], v[corners], z[corners]
     plane, ok = _planes(tu, tv, tz)
     first = np.maximum(np.ceil(_least(tv) - EDGE), 0).astype(np.int64)
     last = np.minimum(np.floor(_most(tv) + EDGE), grid.rows - 1).astype(np.int64)
@@ -62,7 +77,6 @@ def rasterise(
     edges = np.unique(np.r_[0, np.minimum(cuts, len(faces)), len(faces)])
     for a, b in itertools.pairwise(edges.tolist()):
         _scan(tu[:, a:b], tv[:, a:b], plane[:, a:b], first[a:b], nrows[a:b], grid, out)
-    return out
 
 
 def _least(t: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -59,6 +59,9 @@ def triangulate(xy: NDArray[np.float64]) -> Tin:
 
 
 SNAP = 1e-4  # m: positions closer than this are one vertex (the lower kept)
+# Points handed to startinpy at a time: the same mesh as in one call (the same order of
+# insertion), without its copy of the whole input beside the growing mesh at the peak.
+INSERT_BATCH = 100_000
 
 
 def delaunay_mesh(xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
@@ -85,7 +88,8 @@ def delaunay_mesh(xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArra
     dt = startinpy.DT()
     dt.snap_tolerance = SNAP
     dt.duplicates_handling = "Lowest"
-    dt.insert(local, insertionstrategy="AsIs")
+    for s in range(0, len(local), INSERT_BATCH):
+        dt.insert(local[s : s + INSERT_BATCH], insertionstrategy="AsIs")
     faces = np.asarray(dt.triangles)  # a fresh array, its indices unsigned
     faces = faces.view(np.intp) if faces.dtype.itemsize == np.dtype(np.intp).itemsize else faces.astype(np.intp)
     faces -= 1  # startinpy's vertex 0 is the one at infinity
