@@ -2,8 +2,8 @@
 :mod:`ingest.block_size`.
 
 Each case is one block's read box (its square and buffer) modelled as a worker models it
-(``survey`` with the block's extent, then the reduction figures of its square), in a fresh
-process; its peak RSS less the process's own after the imports and the read. Beside it, what
+(``survey`` with the block's extent, then the reduction figures of its square, its allocator
+keeping freed memory), in a fresh process; its peak RSS less the process's own before the block's points are read. Beside it, what
 :func:`ingest.block_size.block_bytes` predicts for the same box and points: the prediction must
 not fall short, or a worker could exceed its memory.
 
@@ -38,20 +38,32 @@ def _run(path: str, side: float) -> None:
     from ingest.pyramid import reduction_stats
     from ingest.readers import read
     from tdb.memory import peak_mib
-    from tdb.threads import one_blas_thread
+    from tdb.threads import keep_freed_memory, one_blas_thread
     from tdb.tiles import SUBGRID
 
+    keep_freed_memory()  # as a worker does at its first block
+    base = peak_mib()  # a worker's before its block's points come
     cloud = read(path)
     x0, y0 = cloud.bounds[0], cloud.bounds[1]
     box = (x0, y0, x0 + side, y0 + side)
-    cloud = cloud.take(np.flatnonzero((cloud.xyz[:, 0] < box[2]) & (cloud.xyz[:, 1] < box[3])))
-    base = peak_mib()
     t0 = time.perf_counter()
     with one_blas_thread():
         s = survey(cloud, options=IngestOptions(extent=box, flat_threshold=0.3), measure=False)
         reduction_stats(s.dtm, s.model, n=SUBGRID)
     doc = {"points": len(cloud), "km2": side * side / 1e6, "peak_mib": peak_mib() - base}
     print(json.dumps({**doc, "seconds": time.perf_counter() - t0}))
+
+
+def _corner(source: Path, side: float, out: Path) -> Path:
+    """The points of ``source`` in the ``side`` m square at its south-west corner, written to ``out``."""
+    import laspy
+
+    las = laspy.read(source)
+    keep = (las.x < las.header.mins[0] + side) & (las.y < las.header.mins[1] + side)
+    part = laspy.LasData(las.header)
+    part.points = las.points[np.asarray(keep)]
+    part.write(out)
+    return out
 
 
 def main() -> None:
@@ -62,10 +74,10 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for name, source, side in CASES:
             if isinstance(source, str):
-                path = DATA / source
-                if not path.exists():
-                    print(f"skip {name}: {path} is absent")
+                if not (DATA / source).exists():
+                    print(f"skip {name}: {DATA / source} is absent")
                     continue
+                path = _corner(DATA / source, side, Path(tmp) / "box.laz")
             else:
                 from ingest.synth import make_scene, write_scene
 

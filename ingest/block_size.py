@@ -19,8 +19,8 @@ MAX_BLOCK = 512.0  # m: the largest side (a multiple of the coarsest tile, 16 m)
 MIN_BLOCK = 64.0  # m: the smallest, where the buffers already read nine times the block
 WORKER_MEMORY = 1.5 * 2**30  # bytes one worker may take at its peak
 WORKER_BASE = 130 * 2**20  # bytes: a worker before its first block (its modules)
-BYTES_PER_M2 = 310.0  # of a block's read box: posts, grids and tiles
-BYTES_PER_POINT = 360.0  # of the points read (the largest measured, and a margin for its spread)
+BYTES_PER_M2 = 440.0  # of a block's read box: posts, grids and tiles
+BYTES_PER_POINT = 380.0  # of the points read, with a margin for a worker's later blocks
 
 
 def block_side(density: float, *, buffer: float) -> float:
