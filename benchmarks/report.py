@@ -420,7 +420,8 @@ def block_memory_section(out: list[str]) -> None:
         "## A block's memory",
         "",
         "`python -m benchmarks.block_memory`: one block's read box modelled as a worker models it, each "
-        "in a fresh process; its peak RSS less its own before the points are read, beside what `ingest/block_size.py` "
+        "in a fresh process; its peak RSS less its own before the points are read, beside what "
+        "`ingest/block_size.py` "
         "predicts from the box's area and points (the blocks' side is chosen so that the prediction "
         f"stays within a worker's {doc['worker_memory_mib']:,.0f} MiB, {doc['worker_base_mib']:,.0f} MiB "
         f"of it the worker's own). Machine: {_machine(doc)}.",
