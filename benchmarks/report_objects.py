@@ -33,8 +33,10 @@ def objects_section(
         "",
         "`python -m benchmarks.objects_cv`: synthetic scenes (300 m, 2, 8 and 20 pulses/m²) and lidR's "
         "`MixedConifer.laz` (its `treeID` trees). Trees scored: ≥ 5 m high with crowns ≥ 3 m wide, matched "
-        "one to one within 1.5 m. The tree settings (smoothing scales, canopy noise) are chosen by "
-        "leave-one-group-out (a group: one scene seed's three densities, or the forest); *held out* is each "
+        "one to one within 1.5 m. The tree settings (smoothing scales, canopy noise, the widest "
+        "penetration the crown net fills) are chosen by "
+        "leave-one-group-out (a group: one scene seed's three densities, or the forest; a setting's score "
+        "the mean over groups of each group's mean F1); *held out* is each "
         "group's F1 with the setting chosen on the others. Seeds 11–14 were never used to choose. The "
         "baseline is a local-maximum filter on a smoothed canopy height model plus a watershed "
         "(scikit-image), on the same ground model, its own setting chosen the same way. "

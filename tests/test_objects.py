@@ -120,6 +120,35 @@ def test_a_low_crown_beside_a_tall_one_keeps_its_own_surface() -> None:
     assert np.abs(surface[on_low] - height[on_low]).max() < 0.5
 
 
+def test_the_contour_fills_a_penetration_and_lifts_less_at_the_foot_of_a_taller_crown() -> None:
+    """A return deep inside a crown is lifted to the crown's surface. Where cells are empty, the
+    net also lifts the low crown's returns at the foot of a taller crown's edge, as though they were
+    penetrations: the closing undoes most of that (the wider the empty cells there, the less)."""
+    from ingest.objects.trees import TreeParams, crown_surface
+
+    rows, cols = np.mgrid[0:24, 0:40]
+    x, y = cols * 0.7, rows * 0.7
+    tall = np.where(np.hypot(x - 8, y - 8) < 3.5, _dome(x, y, 8, 8, 24, 3.5), -np.inf)
+    low = np.where(np.hypot(x - 13.5, y - 8) < 3.2, _dome(x, y, 13.5, 8, 8.6, 3.2), -np.inf)
+    truth = np.maximum(tall, low)
+    mask = np.isfinite(truth)
+    params = TreeParams()
+    unbounded = replace(params, hole_spacings=None)
+    height = np.where(mask, truth, np.nan)
+    deep = (rows == 11) & (cols == 11)  # 1 m from the tall crown's top: crown all round it
+    height[deep] -= 8.0
+    assert abs(crown_surface(height, mask, 0.7, params=params)[deep] - truth[deep]) < 1.5
+    foot = (low > tall) & (np.hypot(x - 8, y - 8) < 3.5 + 2 * 0.7)
+    lifts: dict[str, list[float]] = {"closed": [], "unbounded": []}
+    for seed in range(8):
+        some = np.where(mask, truth, np.nan)
+        some[mask & (np.random.default_rng(seed).random(some.shape) < 0.3)] = np.nan
+        seen = foot & np.isfinite(some)
+        for name, p in (("closed", params), ("unbounded", unbounded)):
+            lifts[name] += list(crown_surface(some, mask, 0.7, params=p)[seen] - some[seen])
+    assert np.mean(lifts["closed"]) < 0.75 * np.mean(lifts["unbounded"])
+
+
 @given(
     slope=st.floats(0.2, 1.2),
     angle=st.floats(0, np.pi),

@@ -41,7 +41,9 @@ class TreeParams:
     ``scales`` (m): the Gaussian smoothing radii, finest first; the finest splits most large
     crowns, the coarsest splits none. ``cell_spacings``: canopy cell in pulse spacings.
     ``penetration`` (m): the contour's attraction range under the crown surface.
-    ``iterations``: at most this many contour steps per phase. ``noise`` (m): the canopy
+    ``iterations``: at most this many contour steps per phase. ``hole_spacings``: the widest
+    penetration (a hole with crown all round it) in pulse spacings; the contour's lift elsewhere,
+    at the foot of a taller crown's edge, is undone (:func:`crown_surface`; None: never). ``noise`` (m): the canopy
     model's noise, the floor of the paraboloids' residuals. ``min_crown_area`` (m²): a smaller
     segment is not a tree. The scales were chosen by leave-one-group-out cross-validation
     (``benchmarks/objects_cv.py``).
@@ -53,6 +55,7 @@ class TreeParams:
     iterations: int = 30
     noise: float = 0.4
     min_crown_area: float = 2.0
+    hole_spacings: float | None = 4.0
 
 
 def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = None) -> list[Tree]:
@@ -113,10 +116,26 @@ def crown_surface(
     started at the highest of each cell's neighbours began, beside a taller crown, metres
     above a lower crown's returns, out of their reach, and bridged the two crowns. Only the
     crowns' cells (``mask``) move: the gaps between crowns are no part of a crown.
+
+    The net also spans a step, where a lower crown meets a taller one's edge: it lifts the lower
+    crown's returns beside the step as it lifts penetrations, and the lower crown then climbs
+    into the taller one. A penetration is a hole with crown all round it; a grey closing fills
+    holes up to ``hole_spacings`` wide to their rim and leaves a step as it is, so the net is
+    kept only as far up as the closing reaches.
     """
     start = np.asarray(fill_nearest(height), np.float64)
     contour = ContourParams(max_iterations=params.iterations)
-    return -relax_on(-height, -start, mask, cell, params.penetration, contour)
+    relaxed = -relax_on(-height, -start, mask, cell, params.penetration, contour)
+    if params.hole_spacings is None:
+        return relaxed
+    return np.minimum(relaxed, filled_holes(start, params.hole_spacings / params.cell_spacings))
+
+
+def filled_holes(surface: NDArray[np.float64], width: float) -> NDArray[np.float64]:
+    """``surface`` with every hole narrower than ``width`` cells filled to its rim: a grey
+    closing whose square is one cell wider (odd), which leaves a step as it is."""
+    side = 2 * int(np.ceil(width / 2)) + 1
+    return np.asarray(ndimage.grey_closing(surface, size=(side, side), mode="nearest"), np.float64)
 
 
 def smoothed(surface: NDArray[np.float64], mask: NDArray[np.bool_], sigma: float) -> NDArray[np.float64]:
