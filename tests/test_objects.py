@@ -100,15 +100,22 @@ def test_scale_choice_splits_two_crowns_and_keeps_one() -> None:
     assert len(np.unique(choose_scales([whole, halves], one, 1.0, noise=0.05, min_cells=4))) == 1
 
 
+def _two_crowns(*, tall_radius: float, low_x: float) -> tuple[np.ndarray, ...]:
+    """Cells of 0.7 m (x, y) and two domes on them (−inf off each): a tall crown, 24 m high at
+    (8, 8), and a low one, 8.6 m high with a 3.2 m radius, beside it at (``low_x``, 8)."""
+    rows, cols = np.mgrid[0:24, 0:40]
+    x, y = cols * 0.7, rows * 0.7
+    tall = np.where(np.hypot(x - 8, y - 8) < tall_radius, _dome(x, y, 8, 8, 24, tall_radius), -np.inf)
+    low = np.where(np.hypot(x - low_x, y - 8) < 3.2, _dome(x, y, low_x, 8, 8.6, 3.2), -np.inf)
+    return x, y, tall, low
+
+
 def test_a_low_crown_beside_a_tall_one_keeps_its_own_surface() -> None:
     """The crown surface starts on the returns: a net started at the tallest neighbour began
     metres above the low crown's returns, beyond their attraction, and bridged the two."""
     from ingest.objects.trees import TreeParams, crown_surface
 
-    rows, cols = np.mgrid[0:24, 0:40]
-    x, y = cols * 0.7, rows * 0.7
-    tall = np.where(np.hypot(x - 8, y - 8) < 2.3, _dome(x, y, 8, 8, 24, 2.3), -np.inf)
-    low = np.where(np.hypot(x - 12.5, y - 8) < 3.2, _dome(x, y, 12.5, 8, 8.6, 3.2), -np.inf)
+    x, y, tall, low = _two_crowns(tall_radius=2.3, low_x=12.5)
     height = np.maximum(tall, low)
     mask = np.isfinite(height)
     height = np.where(mask, height, np.nan)
@@ -126,16 +133,14 @@ def test_the_contour_fills_a_penetration_and_lifts_less_at_the_foot_of_a_taller_
     penetrations: the closing undoes most of that (the wider the empty cells there, the less)."""
     from ingest.objects.trees import TreeParams, crown_surface
 
-    rows, cols = np.mgrid[0:24, 0:40]
-    x, y = cols * 0.7, rows * 0.7
-    tall = np.where(np.hypot(x - 8, y - 8) < 3.5, _dome(x, y, 8, 8, 24, 3.5), -np.inf)
-    low = np.where(np.hypot(x - 13.5, y - 8) < 3.2, _dome(x, y, 13.5, 8, 8.6, 3.2), -np.inf)
+    x, y, tall, low = _two_crowns(tall_radius=3.5, low_x=13.5)
     truth = np.maximum(tall, low)
     mask = np.isfinite(truth)
     params = TreeParams()
     unbounded = replace(params, hole_spacings=None)
     height = np.where(mask, truth, np.nan)
-    deep = (rows == 11) & (cols == 11)  # 1 m from the tall crown's top: crown all round it
+    # 1 m from the tall crown's top: crown all round it
+    deep = (np.round(y / 0.7) == 11) & (np.round(x / 0.7) == 11)
     height[deep] -= 8.0
     assert abs(crown_surface(height, mask, 0.7, params=params)[deep] - truth[deep]) < 1.5
     foot = (low > tall) & (np.hypot(x - 8, y - 8) < 3.5 + 2 * 0.7)
