@@ -44,9 +44,9 @@ class TreeParams:
     ``iterations``: at most this many contour steps per phase. ``hole_spacings``: the widest
     penetration (a hole with crown all round it) in pulse spacings; the contour's lift elsewhere,
     at the foot of a taller crown's edge, is undone (:func:`crown_surface`; None: never).
-    ``noise`` (m): the canopy model's noise, the floor of the paraboloids' residuals. ``min_crown_area`` (m²): a smaller
-    segment is not a tree. The scales were chosen by leave-one-group-out cross-validation
-    (``benchmarks/objects_cv.py``).
+    ``noise`` (m): the canopy model's noise, the floor of the paraboloids' residuals.
+    ``min_crown_area`` (m²): a smaller segment is not a tree. The scales, the noise and the
+    hole width were chosen by leave-one-group-out cross-validation (``benchmarks/objects_cv.py``).
     """
 
     scales: tuple[float, ...] = (0.35, 0.7, 1.4)
