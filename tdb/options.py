@@ -31,6 +31,18 @@ class GroundMethod(Option):
     CONTOUR = "contour"
 
 
+class GroundStage(Option):
+    """The default ground filter's stages after its refinement passes, each of which may be skipped
+    (``docs/ground.md`` says what each finds and why it is there)."""
+
+    PITS = "pits"  # deep narrow clusters of low outliers, found by the upside-down opening
+    EARTHWORKS = "earthworks"  # long, narrow, low object groups: dikes, embankment crests
+    HILLS = "hills"  # object groups that rise smoothly out of the ground
+    WALLS = "walls"  # free-standing walls
+    SPIKES = "spikes"  # one-point pits among the ground
+    SUNKEN = "sunken"  # multipath scatter far below a void
+
+
 class LabelScheme(Option):
     """Meaning of the fourth column of a text point file."""
 

@@ -8,13 +8,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ingest.ground import classify_ground
-from ingest.ground.auto import auto_ground
+from ingest.ground.auto import AutoParams, auto_ground
 from ingest.ground.earthworks import WallShape, elongated_objects, narrow_walls
 from ingest.synth import apply_changes, make_scene, sample
 from ingest.synth.scene import Feature
 from ingest.synth.surface import feature_offset
 from tdb.cloud import GROUND
 from tdb.errors import InputError
+from tdb.options import GroundStage
 
 SHORT = WallShape(min_length=15.0)  # the bands drawn here are 20 m long, as measured a little less
 
@@ -207,6 +208,15 @@ def test_a_wall_under_a_crown_is_found_from_the_last_returns():
     ground = auto_ground(xyz, returns=(number, count))
     assert ground[band].mean() > 0.9
     assert not ground[xyz[:, 2] > 104].any()  # no leaf is ground
+
+
+def test_a_skipped_stage_changes_only_what_it_finds():
+    xyz, number, count, band = _scene_with_a_band("crown")
+    ground = auto_ground(xyz, returns=(number, count))
+    without = auto_ground(xyz, returns=(number, count), params=AutoParams(skip=frozenset({GroundStage.WALLS})))
+    assert without[band].mean() < 0.2 < 0.9 < ground[band].mean()
+    others = np.setdiff1d(np.arange(len(xyz)), band)
+    assert np.array_equal(ground[others], without[others])
 
 
 def test_a_band_under_a_roof_is_no_wall_with_returns_or_without():

@@ -43,6 +43,7 @@ from ingest.ground.refill import LineFill
 from tdb.bbox import column_range
 from tdb.errors import InputError
 from tdb.fill import NearestFill, fill_lines, fill_nearest
+from tdb.options import GroundStage
 
 
 @dataclass(frozen=True)
@@ -67,6 +68,8 @@ class AutoParams:
     earthworks: EarthworkShape = field(default_factory=EarthworkShape)  # long, narrow, low objects are terrain
     walls: WallShape = field(default_factory=WallShape)  # free-standing walls are terrain; rows of cars are not
     hills: HillShape = field(default_factory=HillShape)  # groups that rise smoothly out of the ground are terrain
+    # stages left out, to measure what each earns (benchmarks/ground_stages.py); none by default
+    skip: frozenset[GroundStage] = frozenset()
 
 
 def ground_surface(
@@ -135,9 +138,7 @@ def auto_ground(
     idx = cells.lowest()
     zmin = heights_of(idx, pts)
     objects = progressive_opening(zmin, cell=p.cell, max_window=p.max_window, slope=p.slope)
-    # Clusters of low outliers too big for the neighbour test: deep narrow pits,
-    # found by the same opening of the upside-down surface.
-    pits = progressive_opening(-zmin, cell=p.cell, max_window=p.pit_window, slope=p.pit_slope, offset=p.pit_depth)
+    pits = _pits(zmin, p)
     current = np.where(~objects & ~pits, idx, -1)
     at_points = grid.corner_sampler(pts[:, :2])
     # A cell the opening took for an object holds ground only where its point lies on the
@@ -149,7 +150,7 @@ def auto_ground(
     # Once the passes are done, each stage may hand them more ground, once: steep-sided ridges,
     # dikes and embankment crests (long, narrow, low groups of object cells), then hills
     # (groups that rise smoothly out of the ground).
-    stages_run = 0
+    stages = [s for s in (GroundStage.EARTHWORKS, GroundStage.HILLS) if s not in p.skip]
     passes = p.refinements + 1
     while True:
         passes -= 1
@@ -165,25 +166,49 @@ def auto_ground(
         if passes > 0 and not np.array_equal(before, current):
             continue
         found = np.zeros(grid.shape, bool)
-        while stages_run < 2 and not found.any():
+        while stages and not found.any():
             found = (
                 _earthworks(grid, surface, zmin, idx, current, objects & ~pits, p)
-                if stages_run == 0
+                if stages.pop(0) is GroundStage.EARTHWORKS
                 else _hills(grid, pts, is_ground, p)
             )
-            stages_run += 1
         if not found.any():
             break
         current = np.where(found, idx, current)
         passes = p.stage_passes
     kept_returns = None if returns is None else (returns[0][keep], returns[1][keep])
-    is_ground |= _walls(grid, pts, h, is_ground, p, kept_returns)
-    # One point 1-3 m under all the ground around it passed the 3 m outlier test; it is no terrain.
-    is_ground &= ~ground_spikes(pts, is_ground, cells=cells)
-    # Multipath scatter under a void, tens of metres down: groups no other test takes.
-    is_ground &= ~sunken_groups(pts, is_ground, cells=cells)
-    ground[keep[is_ground]] = True
+    ground[keep[_last_stages(grid, cells, pts, h, is_ground, p, kept_returns)]] = True
     return ground
+
+
+def _pits(zmin: NDArray[np.float64], p: AutoParams) -> NDArray[np.bool_]:
+    """Cells of deep narrow pits: clusters of low outliers too big for the neighbour test, found
+    by the opening of the upside-down surface."""
+    if GroundStage.PITS in p.skip:
+        return np.zeros(zmin.shape, bool)
+    return progressive_opening(-zmin, cell=p.cell, max_window=p.pit_window, slope=p.pit_slope, offset=p.pit_depth)
+
+
+def _last_stages(
+    grid: Grid,
+    cells: CellSort,
+    pts: NDArray[np.float64],
+    h: NDArray[np.float64],
+    is_ground: NDArray[np.bool_],
+    p: AutoParams,
+    returns: tuple[NDArray[np.integer[Any]], NDArray[np.integer[Any]]] | None,
+) -> NDArray[np.bool_]:
+    """The ground once the passes are settled: free-standing walls join it, one-point pits and
+    multipath scatter leave it (each unless ``p.skip`` names it)."""
+    if GroundStage.WALLS not in p.skip:
+        is_ground = is_ground | _walls(grid, pts, h, is_ground, p, returns)
+    # One point 1-3 m under all the ground around it passed the 3 m outlier test; it is no terrain.
+    if GroundStage.SPIKES not in p.skip:
+        is_ground = is_ground & ~ground_spikes(pts, is_ground, cells=cells)
+    # Multipath scatter under a void, tens of metres down: groups no other test takes.
+    if GroundStage.SUNKEN not in p.skip:
+        is_ground = is_ground & ~sunken_groups(pts, is_ground, cells=cells)
+    return is_ground
 
 
 def _walls(
