@@ -117,6 +117,20 @@ def _three(r: dict[str, float]) -> str:
     return f"{r['type1']:.2f} / {r['type2']:.2f} / {r['kappa']:.1f}"
 
 
+def _held_out_table(out: list[str], rows: list[dict[str, Any]]) -> None:
+    """Per sample: the default's, the tuned setting's and the held-out setting's total error."""
+    out += [
+        "| sample | site | default | tuned | held out | setting chosen without the site |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        chosen = ", ".join(f"{k} {v}" for k, v in r["held_out_setting"].items())
+        out.append(
+            f"| {r['sample']} | {r['site']} | {r['default']:.2f} | {r['tuned']:.2f} | "
+            f"{r['held_out']:.2f} | {chosen} |"
+        )
+
+
 def ground_cv_section(out: list[str]) -> None:
     doc = _load("ground_cv")
     if not doc:
@@ -132,15 +146,8 @@ def ground_cv_section(out: list[str]) -> None:
         + "; ".join(f"`{k}` {', '.join(map(str, v))}" for k, v in doc["grid"].items())
         + f". Tuned: `{doc['tuned_setting']}`; default: `{doc['default_setting']}`.",
         "",
-        "| sample | site | default | tuned | held out | setting chosen without the site |",
-        "|---|---|---|---|---|---|",
     ]
-    for r in doc["rows"]:
-        chosen = ", ".join(f"{k} {v}" for k, v in r["held_out_setting"].items())
-        out.append(
-            f"| {r['sample']} | {r['site']} | {r['default']:.2f} | {r['tuned']:.2f} | "
-            f"{r['held_out']:.2f} | {chosen} |"
-        )
+    _held_out_table(out, doc["rows"])
     out.append("")
     for key, label in (("default", "default"), ("tuned", "tuned")):
         fams = ", ".join(f"{k.removesuffix('_mean')} {v:.2f} %" for k, v in doc["summary"][key].items())
@@ -178,15 +185,8 @@ def ground_stages_section(out: list[str]) -> None:
         + "; ".join(f"`{k}` {', '.join(map(str, v))}" for k, v in bounds["grid"].items())
         + f". Tuned on all six sites: `{bounds['tuned_setting']}`. Total error %:",
         "",
-        "| sample | site | default | tuned | held out | setting chosen without the site |",
-        "|---|---|---|---|---|---|",
     ]
-    for r in bounds["rows"]:
-        setting = ", ".join(f"{k} {v}" for k, v in r["held_out_setting"].items())
-        out.append(
-            f"| {r['sample']} | {r['site']} | {r['default']:.2f} | {r['tuned']:.2f} | "
-            f"{r['held_out']:.2f} | {setting} |"
-        )
+    _held_out_table(out, bounds["rows"])
     sm = bounds["summary"]
     out += [
         "",
