@@ -22,8 +22,8 @@ from ingest.noise import coordinate_hash
 
 PARTS = 4  # halves and quarters of each crown's returns
 ALPHA = (0.5, 1.0)  # the shortfall's power of the density: depth into the crown, the crown's curvature
-# Deals averaged, each by another hash: one deal's gaps vary from survey to survey by as much as
-# their ratio can bear, and α, read from that ratio, swung the shortfall by a factor of 2.5.
+# Deals averaged, each by another hash: one deal's gaps are too noisy for their ratio, and α,
+# read from it, then moves the shortfall by as much as the shortfall itself.
 DEALS = 8
 # Returns per crown that can hold the maximum of one of its quarters: the highest of this many
 # misses a quarter with chance (3/4)^64, under 1e-8.
