@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import itertools
 import json
 from concurrent.futures import ProcessPoolExecutor
@@ -35,7 +36,7 @@ from ingest.ground.evaluate import accuracy
 from ingest.readers import read
 from ingest.synth import make_scene
 from ingest.synth import sample as survey_of
-from tdb.cloud import GROUND
+from tdb.cloud import GROUND, PointCloud
 from tdb.units import to_metres
 
 ISPRS_SITES = {
@@ -85,13 +86,30 @@ def samples() -> list[tuple[str, str]]:
     return out
 
 
-def _score_setting(setting: dict[str, Any]) -> dict[str, float]:
+@functools.cache
+def _isprs_sample(s: str) -> PointCloud:
+    """One ISPRS sample, read once per process."""
+    return read(DATA / "isprs" / f"samp{s}-utm.laz")
+
+
+def isprs_scores(params: AutoParams) -> dict[str, float]:
+    """Total error (%) of the default filter with ``params`` on each ISPRS sample."""
+    out = {}
+    for s in ISPRS_SITES:
+        cloud = _isprs_sample(s)
+        out[f"samp{s}"] = accuracy(cloud.classification == 2, auto_ground(cloud.xyz, params=params)).total
+    return out
+
+
+def family(site: str) -> str:
+    """Which family a site belongs to: the ISPRS sites chosen on, or one of the two checks."""
+    return "isprs" if site.startswith("ISPRS") else "synthetic" if site.startswith("synthetic") else "real"
+
+
+def score_setting(setting: dict[str, Any]) -> dict[str, float]:
     """Total error (%) of the default filter with ``setting`` on every sample."""
     params = dataclasses.replace(AutoParams(), **setting)
-    out: dict[str, float] = {}
-    for s in ISPRS_SITES:
-        cloud = read(DATA / "isprs" / f"samp{s}-utm.laz")
-        out[f"samp{s}"] = accuracy(cloud.classification == 2, auto_ground(cloud.xyz, params=params)).total
+    out = isprs_scores(params)
     for path in files():
         cloud = to_metres(read(path))
         shown = np.flatnonzero(~np.isin(cloud.classification, EXCLUDE))
@@ -145,7 +163,7 @@ def main() -> None:
         scored_at = earlier.get("scored_at") or earlier.get("machine")
     else:
         with ProcessPoolExecutor(args.workers) as pool:
-            table = list(pool.map(_score_setting, settings))
+            table = list(pool.map(score_setting, settings))
     pairs = samples()
     tuned, held = cross_validate(table, pairs)
     default = settings.index({k: getattr(AutoParams(), k) for k in GRID})
@@ -166,11 +184,7 @@ def main() -> None:
             f"  held out {r.held_out:6.2f}  {r.held_out_setting}",
             flush=True,
         )
-    families = {
-        "isprs_mean": [r for r in rows if r.site.startswith("ISPRS")],
-        "synthetic_mean": [r for r in rows if r.site.startswith("synthetic")],
-    }
-    families["real_mean"] = [r for r in rows if all(r not in f for f in families.values())]
+    families = {f"{f}_mean": [r for r in rows if family(r.site) == f] for f in ("isprs", "synthetic", "real")}
     summary = {
         key: {name: float(np.mean([getattr(r, key) for r in f])) for name, f in families.items()}
         for key in ("default", "tuned", "held_out")

@@ -23,11 +23,17 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.common import DATA, save
-from benchmarks.ground_cv import ISPRS_SITES, _score_setting, cross_validate, samples, site_means
-from ingest.ground.auto import AutoParams, auto_ground
-from ingest.ground.evaluate import accuracy
-from ingest.readers import read
+from benchmarks.common import save
+from benchmarks.ground_cv import (
+    ISPRS_SITES,
+    cross_validate,
+    family,
+    isprs_scores,
+    samples,
+    score_setting,
+    site_means,
+)
+from ingest.ground.auto import AutoParams
 from tdb.options import GroundStage
 
 # Each a physical quantity, on a coarse grid around the default (the default first).
@@ -49,17 +55,11 @@ def params_of(setting: dict[str, Any]) -> AutoParams:
 
 
 def _isprs_scores(setting: dict[str, Any]) -> dict[str, float]:
-    """Total error (%) on each ISPRS sample."""
-    params = params_of(setting)
-    out = {}
-    for s in ISPRS_SITES:
-        cloud = read(DATA / "isprs" / f"samp{s}-utm.laz")
-        out[f"samp{s}"] = accuracy(cloud.classification == 2, auto_ground(cloud.xyz, params=params)).total
-    return out
+    return isprs_scores(params_of(setting))
 
 
 def _skip(stage: GroundStage | None) -> dict[str, float]:
-    return _score_setting({"skip": frozenset() if stage is None else frozenset({stage})})
+    return score_setting({"skip": frozenset() if stage is None else frozenset({stage})})
 
 
 def ablation(workers: int) -> dict[str, Any]:
@@ -87,8 +87,7 @@ def ablation(workers: int) -> dict[str, Any]:
 def _families(pairs: list[tuple[str, str]]) -> dict[str, list[str]]:
     out: dict[str, list[str]] = {"isprs": [], "real": [], "synthetic": []}
     for sample, site in pairs:
-        key = "isprs" if site.startswith("ISPRS") else "synthetic" if site.startswith("synthetic") else "real"
-        out[key].append(sample)
+        out[family(site)].append(sample)
     return out
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.noise import coordinate_hash
+from tdb.tin import group_starts
 
 PARTS = 4  # halves and quarters of each crown's returns
 ALPHA = (0.5, 1.0)  # the shortfall's power of the density: depth into the crown, the crown's curvature
@@ -55,9 +56,8 @@ def _highest(seg: NDArray[np.intp], h: NDArray[np.float64], count: int) -> NDArr
     """Indices of the ``count`` highest returns of each crown."""
     # one key, crown then height downwards: a float sort is several times faster than a lexsort
     order = np.argsort(seg * (np.ptp(h) + 1.0) - (h - h.min()))
-    s = seg[order]
-    first = np.r_[0, np.flatnonzero(s[1:] != s[:-1]) + 1]
-    rank = np.arange(len(s)) - np.repeat(first, np.diff(np.r_[first, len(s)]))
+    _, starts, sizes = group_starts(seg[order])
+    rank = np.arange(len(order)) - np.repeat(starts, sizes)
     return order[rank < count]
 
 
