@@ -9,6 +9,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from tdb.errors import InputError
+from tdb.threads import one_blas_thread
 
 Lines = NDArray[np.floating[Any]]  # one value per hole
 
@@ -210,8 +211,9 @@ def fill_lines_stack(
     rank = slot[inverse]
     order = np.argsort(rank, kind="stable")
     bounds = np.searchsorted(rank[order], np.arange(len(use) + 1))
-    for k, p in enumerate(use):
-        if patterns[p]:  # a raster with no known cell stays NaN
-            members = order[bounds[k] : bounds[k + 1]]
-            out[members] = values[members] @ weights[k]
+    with one_blas_thread():  # one product per pattern: see tdb.threads
+        for k, p in enumerate(use):
+            if patterns[p]:  # a raster with no known cell stays NaN
+                members = order[bounds[k] : bounds[k + 1]]
+                out[members] = values[members] @ weights[k]
     return out
