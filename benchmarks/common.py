@@ -58,6 +58,22 @@ def run_child(module: str, *args: str) -> dict[str, Any]:
     return dict(json.loads(out.stdout.decode().strip().splitlines()[-1]))
 
 
+REPEATS = 3  # runs of a timing that varies from run to run on a shared machine
+
+
+def median_run(run: Callable[[int], dict[str, Any]], *, repeats: int = REPEATS) -> dict[str, Any]:
+    """The run of median ``seconds`` among ``repeats`` calls of ``run(i)`` (i = 0 … repeats − 1;
+    each a fresh child, :func:`run_child`), with every run's seconds beside it (``seconds_runs``)
+    and the largest peak memory of any (the keys ending in ``rss_mib``)."""
+    runs = [run(i) for i in range(repeats)]
+    out = dict(sorted(runs, key=lambda r: float(r["seconds"]))[len(runs) // 2])
+    for key in out:
+        if key.endswith("rss_mib") and all(r.get(key) is not None for r in runs):
+            out[key] = max(float(r[key]) for r in runs)
+    out["seconds_runs"] = [round(float(r["seconds"]), 3) for r in runs]
+    return out
+
+
 def peak_rss_mib() -> float:
     """Peak resident memory of this process so far (MiB)."""
     return peak_mib()

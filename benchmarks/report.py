@@ -342,6 +342,19 @@ def peers_section(out: list[str]) -> None:
     out.append("")
 
 
+def _repeats(runs: dict[str, Any]) -> int:
+    """How many runs each timed figure is the median of (1 in results saved before medians)."""
+    return max((len(r.get("seconds_runs", [])) for r in runs.values()), default=1) or 1
+
+
+def _seconds(run: dict[str, Any]) -> str:
+    """A run's seconds, and where it is the median of several, every run's in brackets."""
+    every = run.get("seconds_runs")
+    if not every:
+        return f"{run['seconds']:.1f}"
+    return f"{run['seconds']:.1f} ({', '.join(f'{t:.1f}' for t in every)})"
+
+
 def dask_section(out: list[str]) -> None:
     doc = _load("dask_cluster")
     if not doc:
@@ -352,14 +365,14 @@ def dask_section(out: list[str]) -> None:
         "",
         f"`python -m benchmarks.dask_cluster` on `{doc['file']}` ({doc['points']:,} points, "
         f"{doc['block_m']:.0f} m blocks): a `dask scheduler` and {doc['workers']} `dask worker` processes "
-        f"(one thread each) started on this machine, on loopback; one process per run. Machine: {_machine(doc)}.",
+        f"(one thread each) started on this machine, on loopback; one process per run, each run the median of "
+        f"{_repeats(runs)} (every run's seconds in brackets). Machine: {_machine(doc)}.",
         "",
         "| run | seconds | against one worker |",
         "|---|---|---|",
-        f"| local pool, {doc['workers']} workers | {runs['pool']['seconds']:.1f} | {doc['pool_speedup']:.2f} × |",
-        f"| cluster, {doc['workers']} workers | {runs['cluster']['seconds']:.1f} "
-        f"| {doc['cluster_speedup']:.2f} × |",
-        f"| local, one worker | {runs['one_worker']['seconds']:.1f} | 1 × |",
+        f"| local pool, {doc['workers']} workers | {_seconds(runs['pool'])} | {doc['pool_speedup']:.2f} × |",
+        f"| cluster, {doc['workers']} workers | {_seconds(runs['cluster'])} | {doc['cluster_speedup']:.2f} × |",
+        f"| local, one worker | {_seconds(runs['one_worker'])} | 1 × |",
         "",
         f"Cluster against the local pool: **{doc['cluster_over_pool']:.2f} ×** its time (target within 10 %). "
         "Same version as the pool's: "
@@ -415,7 +428,8 @@ def blocked_section(out: list[str]) -> None:
         "## Ingest of a large file whole and block by block",
         "",
         f"`python -m benchmarks.blocked_ingest` on `{doc['file']}` ({doc['points']:,} points, "
-        f"{doc['km2']:.2f} km² of extent); one process per run. Machine: {_machine(doc)}.",
+        f"{doc['km2']:.2f} km² of extent); one process per run, the timed runs each the median of "
+        f"{_repeats(runs)} (every run's seconds in brackets). Machine: {_machine(doc)}.",
         "",
         "| run | seconds | points/s | s per km² | peak RSS MiB (a worker's) |",
         "|---|---|---|---|---|",
@@ -426,7 +440,7 @@ def blocked_section(out: list[str]) -> None:
         r = runs[key]
         worker = f" ({r['worker_peak_rss_mib']:.0f})" if r.get("worker_peak_rss_mib") else ""
         out.append(
-            f"| {label} | {r['seconds']:.1f} | {r['points_per_s']:,.0f} | {r['s_per_km2']:.2f} "
+            f"| {label} | {_seconds(r)} | {r['points_per_s']:,.0f} | {r['s_per_km2']:.2f} "
             f"| {r['peak_rss_mib']:.0f}{worker} |"
         )
     out += [
