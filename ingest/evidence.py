@@ -14,7 +14,7 @@ from tdb.raster import Raster
 
 NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic's six terms
 TOLERANCE = 0.1  # m per m: what a neighbour carried along the surface may fall short by
-CHUNK = 200_000  # points per batch of plane fits (bounds the memory of the neighbourhoods)
+CHUNK = 20_000  # points per batch of plane fits: their neighbourhoods (15 MB) stay in the heap and the caches
 DEEP_SHARE = 0.2  # a tile's depth is what this share of its ground returns reach, not one return
 LAYER_TILES = 5  # the least window of a tile's layer: a narrow wall's two lifted edges are a minority
 

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 EDGE = 1e-9  # posts: a post this close to an edge counts as on it (round-off of the run's ends)
-CHUNK = 4_000_000  # posts per batch of runs (bounds the memory of the expansion)
+CHUNK = 1_000_000  # posts per batch of runs: their arrays (8 MB each) stay in the heap and the caches
 FACES = 1 << 19  # triangles per batch (bounds the memory of their corners and planes)
 
 
