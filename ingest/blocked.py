@@ -18,7 +18,11 @@ filter's openings (windows up to 16 m radius, 68 m reach in all) and on the surf
 refinement passes rebuild from their neighbours, which bridges holes of up to 64 m and takes the
 nearest ground across wider ones (``AutoParams.max_bridge``); the dense model bridges holes
 (roofs, water) by a triangulation across them; the 16 m level samples a model smoothed over 2 m.
-64 m holds these for holes up to 64 m across. Each block's filter grid covers its read box within
+64 m holds these for holes up to 64 m across. The rest of the model (dense model, categories,
+reduction, evidence, objects) is made from the points within 32 m of the block's square only
+(:data:`MARGIN`), once the filter has labelled them: it reads two tiles of the coarsest level
+around a tile, and spending it on the whole buffer made a block's model a quarter larger than
+it needed to be. Each block's filter grid covers its read box within
 the survey's bounds, so that it ends where the whole survey's does, not where its own points
 do. What can still differ: object groups larger than the buffer (an embankment several hundred
 metres long is judged by its whole extent). The flat threshold is one for the whole survey,
@@ -78,6 +82,7 @@ from tdb.units import to_metres, units_of
 from tdb.version_writer import VersionWriter
 
 BUFFER = 64.0  # m: see the module's description
+MARGIN = 32.0  # m of the buffer the model beyond the ground filter reads: see the module's description
 CHUNK = 2_000_000  # points decoded at a time
 
 
@@ -330,9 +335,8 @@ def _scatter(
     return Scattered(files, seen / occupied if occupied else 0.0, own, dict(squares))
 
 
-def _in_square(rec: NDArray[Any], core: Box) -> NDArray[np.bool_]:
-    """Which of ``rec`` lie in the half-open square ``core``."""
-    x, y = rec["x"], rec["y"]
+def _in_square(x: NDArray[np.float64], y: NDArray[np.float64], core: Box) -> NDArray[np.bool_]:
+    """Which of the points (``x``, ``y``) lie in the half-open square ``core``."""
     return (x >= core[0]) & (x < core[2]) & (y >= core[1]) & (y < core[3])
 
 
@@ -494,7 +498,7 @@ def _pilot_threshold(
     for blk, path in zip(blocks, sc.files):
         if path.exists() and overlaps(blk.core, around):
             rec = np.fromfile(path, RECORD)
-            parts.append(rec[_in_square(rec, blk.core) & _in_square(rec, around)])
+            parts.append(rec[_in_square(rec["x"], rec["y"], blk.core) & _in_square(rec["x"], rec["y"], around)])
     rec = np.concatenate(parts)
     cloud = from_records(rec[np.lexsort((rec["z"], rec["y"], rec["x"]))], crs=crs, source="pilot square")
     # the blocks' extents together span the survey's bounds, where a one-piece grid ends
@@ -531,14 +535,18 @@ def _one_block_at(
 def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str) -> BlockResult | None:
     """Model one block from its points (``RECORD`` rows) and keep what lies in its own square."""
     x0, y0, x1, y1 = blk.core
-    own = _in_square(rec, blk.core)
+    own = _in_square(rec["x"], rec["y"], blk.core)
     if not own.any() or len(rec) < 3:
         return None
     cloud = from_records(rec, crs=crs, source=source)
     # A worker's warnings would not reach the caller: what they say is returned and said once.
     with one_blas_thread(), warnings.catch_warnings():
         warnings.simplefilter("ignore", TdbWarning)
-        s = survey(cloud, options=dataclasses.replace(o, extent=blk.extent), measure=False)
+        s = survey(
+            cloud,
+            options=dataclasses.replace(o, extent=blk.extent, model_box=_grown(blk.core, MARGIN)),
+            measure=False,
+        )
     m = s.model
     levels = {}
     for level, t in m.levels.items():
@@ -567,7 +575,7 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
         points=(m.x[on], m.y[on], m.z[on], m.n[on]),
         reduction=reduction,
         points_read=int(own.sum()),
-        ground=int((s.ground & own).sum()),
+        ground=int((s.ground & _in_square(s.cloud.xyz[:, 0], s.cloud.xyz[:, 1], blk.core)).sum()),
         excluded=int((excluded(cloud.classification, o.exclude) & own).sum()),
         noise=s.noise,
         flat_threshold=s.flat_threshold,

@@ -19,7 +19,7 @@ from ingest.noise import QUIET, fullest_square, ground_noises, pilot_threshold, 
 from ingest.objects import Objects, find_objects
 from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
-from tdb.bbox import Box
+from tdb.bbox import Box, points_in_box
 from tdb.classes import NOISE, excluded, parse_classes, user_classes
 from tdb.cloud import PointCloud
 from tdb.database import Database, Version, VersionInfo, check_version_name
@@ -61,6 +61,10 @@ class IngestOptions:
     modelled in parts. ``objects``: find and store the trees and buildings (seed §2.2–2.3).
     ``extent`` (x0, y0, x1, y1, m) is the box the ground filter's grid covers (None: the cloud's
     own extent); given where a survey is modelled in parts: a part's box within the survey's.
+    ``model_box`` (x0, y0, x1, y1, m) is the box whose points the rest of the model (dense model,
+    categories, reduction, evidence, objects) is made from, once the ground filter has labelled
+    them all (None: the whole cloud); given where a part needs the ground filter's reach around
+    it but not the rest's.
     """
 
     crs: Any = None
@@ -73,6 +77,7 @@ class IngestOptions:
     density: float | None = None
     objects: bool = True
     extent: Box | None = None
+    model_box: Box | None = None
 
     def __post_init__(self) -> None:
         # user text is accepted and checked once, here
@@ -115,6 +120,9 @@ def survey(
     ground = classify_ground(
         metric, method=o.method, progress=report, exclude=o.exclude, density=o.density, extent=extent
     )
+    if o.model_box is not None:
+        inside = np.flatnonzero(points_in_box(metric.xyz, o.model_box))
+        metric, ground = metric.take(inside), ground[inside]
     report("dense model", 0, 1)
     gxyz = metric.xyz[ground]
     dtm = dense_model(gxyz, resolution=o.resolution, crs=metric.crs)

@@ -62,3 +62,10 @@ def column_range(points: NDArray[Any]) -> tuple[NDArray[np.float64], NDArray[np.
     lo = np.array([a[:, k].min() for k in range(a.shape[1])])
     hi = np.array([a[:, k].max() for k in range(a.shape[1])])
     return lo, hi
+
+
+def points_in_box(xy: NDArray[Any], box: Box) -> NDArray[np.bool_]:
+    """Which of the points ``xy`` (N, ≥ 2: x and y first) lie in ``box`` (edges included)."""
+    x0, y0, x1, y1 = box
+    x, y = xy[:, 0], xy[:, 1]
+    return np.asarray((x >= x0) & (x <= x1) & (y >= y0) & (y <= y1))
