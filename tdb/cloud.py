@@ -20,6 +20,7 @@ MEDIUM_VEGETATION = 4
 VEGETATION = HIGH_VEGETATION = 5
 BUILDING = 6
 NOISE = 7
+HIGH_NOISE = 18  # ASPRS (LAS 1.4): returns above any surface, from birds, clouds, dust
 CLASS_NAMES = {
     GROUND: "ground",
     LOW_VEGETATION: "low vegetation",
@@ -27,6 +28,7 @@ CLASS_NAMES = {
     HIGH_VEGETATION: "high vegetation",
     BUILDING: "building",
     OTHER: "other",
+    HIGH_NOISE: "high noise",
 }
 
 

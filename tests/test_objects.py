@@ -234,6 +234,33 @@ def test_trees_found_with_their_height_and_crown(scene_objects) -> None:
         assert 0.5 <= t.crown_diameter / (2 * np.sqrt(t.crown.area / np.pi)) <= 2.0
 
 
+def test_returns_high_over_everything_are_noise_and_leave_the_trees_as_they_were(scene_objects) -> None:
+    """Birds and clouds, hundreds of metres over the canopy (as in the ISPRS forest sites), are
+    high noise (class 18), no trees; and the trees under them keep their heights: such returns,
+    taken for crowns, had moved every tree's height by metres through the sampling shortfall."""
+    _, cloud, ground, dtm, found = scene_objects
+    rng = np.random.default_rng(7)
+    b = cloud.bounds
+    n = 300
+    birds = np.column_stack(
+        [rng.uniform(b[0] + 5, b[3] - 5, n), rng.uniform(b[1] + 5, b[4] - 5, n), rng.uniform(300, 700, n) + b[5]]
+    )
+    noisy = PointCloud(
+        np.vstack([cloud.xyz, birds]),
+        np.r_[cloud.classification, np.zeros(n, np.uint8)],
+        np.r_[cloud.return_number, np.ones(n, np.uint8)],
+        np.r_[cloud.number_of_returns, np.full(n, 2, np.uint8)],
+        crs=cloud.crs,
+    )
+    again = find_objects(noisy, np.r_[ground, np.zeros(n, bool)], dtm)
+    assert np.all(again.classes[len(cloud) :] == 18)
+    assert np.array_equal(again.classes[: len(cloud)], found.classes)
+    before = np.array([[t.x, t.y, t.height] for t in found.trees])
+    after = np.array([[t.x, t.y, t.height] for t in again.trees])
+    assert after.shape == before.shape
+    assert np.abs(after - before).max() < 0.05
+
+
 def test_single_returns_still_classify_with_a_warning(scene_objects) -> None:
     _, cloud, ground, dtm, _ = scene_objects
     single = replace(

@@ -25,7 +25,16 @@ from ingest.objects.climb import NEIGHBOURS
 from ingest.objects.heights import TopRaster, above_ground
 from ingest.objects.mixture import fit_two
 from ingest.objects.texture import median_texture
-from tdb.cloud import BUILDING, GROUND, HIGH_VEGETATION, LOW_VEGETATION, MEDIUM_VEGETATION, OTHER, PointCloud
+from tdb.cloud import (
+    BUILDING,
+    GROUND,
+    HIGH_NOISE,
+    HIGH_VEGETATION,
+    LOW_VEGETATION,
+    MEDIUM_VEGETATION,
+    OTHER,
+    PointCloud,
+)
 from tdb.errors import TdbWarning
 from tdb.fill import fill_nearest
 from tdb.raster import Raster
@@ -54,6 +63,10 @@ class CoverParams:
     pulses with more than one return. ``min_building_area`` (m²): a smaller region is not a
     building. ``low_height``, ``high_height`` (m): vegetation under ``low_height`` is class 1
     (near the ground), up to ``min_height`` class 3, up to ``high_height`` class 4, above it 5.
+    ``max_height`` (m): a return higher over the ground is high noise (class 18: a bird, a
+    cloud, dust), no object: taller than the tallest trees (about 115 m), it would otherwise
+    stand in a canopy cell for the crown under it. Towers and buildings that stand higher are
+    left out with it; raise it for a city of skyscrapers.
     """
 
     min_height: float = 2.0
@@ -64,6 +77,7 @@ class CoverParams:
     min_building_area: float = 10.0
     low_height: float = 0.5
     high_height: float = 5.0
+    max_height: float = 150.0
 
 
 @dataclass(frozen=True)
@@ -104,7 +118,8 @@ def classify_cover(
     params: CoverParams | None = None,
     skip: NDArray[np.bool_] | None = None,
 ) -> Cover:
-    """Classify every point: ground (2), vegetation by height (3, 4, 5), building (6), other (1).
+    """Classify every point: ground (2), vegetation by height (3, 4, 5), building (6), other (1),
+    high noise (18).
 
     Parameters
     ----------
@@ -116,6 +131,8 @@ def classify_cover(
     """
     p = params or CoverParams()
     h = above_ground(cloud.xyz, dtm)
+    high = np.nan_to_num(h, nan=-np.inf) > p.max_height
+    h[high] = np.nan
     if skip is not None:
         h[skip] = np.nan
     spacing = pulse_spacing(cloud)
@@ -129,6 +146,7 @@ def classify_cover(
     tall = np.nan_to_num(h, nan=-np.inf) > p.min_height
     cells = _cell_classes(top, cloud.xyz[:, :2], p, _Echoes(cell, tall, multi & tall) if echo_test else None)
     classes = _point_classes(h, ground, cells.ravel()[cell], p)
+    classes[high] = HIGH_NOISE
     if skip is not None:
         classes[skip] = cloud.classification[skip]
     return Cover(classes, h, top, cell, cells, echo_test, spacing)
