@@ -261,6 +261,35 @@ def test_returns_high_over_everything_are_noise_and_leave_the_trees_as_they_were
     assert np.abs(after - before).max() < 0.05
 
 
+def test_first_and_last_pulse_data_still_tell_roofs_from_crowns(scene_objects) -> None:
+    """Surveys delivered as first and last pulse (the ISPRS site clouds) give every pulse two
+    returns: on a roof the same place twice, in a crown two echoes apart. Roofs are roofs."""
+    _, cloud, ground, dtm, found = scene_objects
+    nr, rn = cloud.number_of_returns, cloud.return_number
+    single = nr == 1
+    first = (rn == 1) & ~single
+    last = (rn == nr) & ~single
+    rng = np.random.default_rng(3)
+    twin = cloud.xyz[single] + np.r_[0.0, 0.0, 1.0] * rng.uniform(-0.01, 0.01, (single.sum(), 1))
+    xyz = np.vstack([cloud.xyz[single], twin, cloud.xyz[first], cloud.xyz[last]])
+    pulses = int(single.sum() + first.sum())
+    two = PointCloud(
+        xyz,
+        np.r_[cloud.classification[single], cloud.classification[single], cloud.classification[first | last]],
+        np.r_[
+            np.ones(single.sum()), np.full(single.sum(), 2), np.ones(first.sum()), np.full(last.sum(), 2)
+        ].astype(np.uint8),
+        np.full(len(xyz), 2, np.uint8),
+        crs=cloud.crs,
+    )
+    assert len(two) == 2 * pulses
+    again = find_objects(two, np.r_[ground[single], ground[single], ground[first], ground[last]], dtm)
+    truth = two.classification
+    tall = (again.cover.height > 2) & np.isin(truth, (5, 6))
+    assert np.mean((again.classes[tall] == 6) == (truth[tall] == 6)) >= 0.95
+    assert len(again.buildings) == len(found.buildings)
+
+
 def test_single_returns_still_classify_with_a_warning(scene_objects) -> None:
     _, cloud, ground, dtm, _ = scene_objects
     single = replace(

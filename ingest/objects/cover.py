@@ -37,6 +37,7 @@ from tdb.cloud import (
 )
 from tdb.errors import TdbWarning
 from tdb.fill import fill_nearest
+from tdb.kdtree import plan_tree
 from tdb.raster import Raster
 
 VEGETATION_CELL, BUILDING_CELL = 1, 2
@@ -105,6 +106,28 @@ def pulse_spacing(cloud: PointCloud) -> float:
     return point_spacing(cloud.xyz[first, :2] if first.sum() >= 3 else cloud.xyz[:, :2])
 
 
+TWIN_PLAN = 0.02  # m: a pulse's first and last return this close in plan are one place ...
+TWIN_HEIGHT = 0.5  # m: ... and this close in height one echo: under any sensor's range resolution
+
+
+def separate_echoes(cloud: PointCloud) -> NDArray[np.bool_]:
+    """The returns of pulses that gave more than one echo: those of multi-return pulses, less
+    the returns recorded twice, as first and last of a pulse that met one surface (within
+    :data:`TWIN_PLAN` in plan and :data:`TWIN_HEIGHT` in height of another multi-return point).
+    Surveys delivered as first and last pulse (the ISPRS site clouds) give every pulse two
+    returns, on a roof at one place; counting those as double echoes made every roof a crown."""
+    multi = cloud.number_of_returns > 1
+    at = np.flatnonzero(multi)
+    if len(at) < 2:
+        return multi
+    pairs = plan_tree(cloud.xyz[at, :2]).query_pairs(TWIN_PLAN, output_type="ndarray")
+    a, b = at[pairs[:, 0]], at[pairs[:, 1]]
+    once = np.abs(cloud.xyz[a, 2] - cloud.xyz[b, 2]) <= TWIN_HEIGHT
+    multi[a[once]] = False
+    multi[b[once]] = False
+    return multi
+
+
 def cell_size(spacing: float, *, spacings: float) -> float:
     """A raster cell (m) of ``spacings`` pulse spacings, on the quarter-octave ladder."""
     return max(MIN_CELL, quantised(spacings * spacing))
@@ -139,7 +162,7 @@ def classify_cover(
     grid = Grid.covering(cloud.xyz[:, :2], cell_size(spacing, spacings=p.cell_spacings))
     top = TopRaster.of(grid, cloud.xyz[:, :2], h)
     cell = top.cells_of(cloud.xyz[:, :2])
-    multi = cloud.number_of_returns > 1
+    multi = separate_echoes(cloud)
     echo_test = bool(multi.any())
     if not echo_test:
         warnings.warn(f"{cloud.source}: {SINGLE_RETURNS}", TdbWarning, stacklevel=2)
