@@ -19,10 +19,11 @@ refinement passes rebuild from their neighbours, which bridges holes of up to 64
 nearest ground across wider ones (``AutoParams.max_bridge``); the dense model bridges holes
 (roofs, water) by a triangulation across them; the 16 m level samples a model smoothed over 2 m.
 64 m holds these for holes up to 64 m across. The rest of the model (dense model, categories,
-reduction, evidence, objects) is made from the points within 32 m of the block's square only
-(:data:`MARGIN`), once the filter has labelled them: it reads two tiles of the coarsest level
-around a tile, and spending it on the whole buffer made a block's model a quarter larger than
-it needed to be. Each block's filter grid covers its read box within
+reduction, evidence, objects) reads less around a tile: the coarsest level's smoothing, the
+evidence's window and a crown reach some 10–15 m. It is made from the points within
+:data:`MARGIN` of the block's square only, once the filter has labelled them all, which holds
+those with room; only the dense model's triangles across a hole wider than that can differ, as
+the filter's do beyond 64 m. Each block's filter grid covers its read box within
 the survey's bounds, so that it ends where the whole survey's does, not where its own points
 do. What can still differ: object groups larger than the buffer (an embankment several hundred
 metres long is judged by its whole extent). The flat threshold is one for the whole survey,
@@ -82,7 +83,7 @@ from tdb.units import to_metres, units_of
 from tdb.version_writer import VersionWriter
 
 BUFFER = 64.0  # m: see the module's description
-MARGIN = 32.0  # m of the buffer the model beyond the ground filter reads: see the module's description
+MARGIN = 32.0  # m of the buffer the model beyond the ground filter is made from: see the module's description
 CHUNK = 2_000_000  # points decoded at a time
 
 

@@ -178,7 +178,7 @@ def _pattern_weights(
 def _pattern_codes(known: NDArray[np.bool_]) -> NDArray[np.int64]:
     """Each row's pattern of known cells (T, n ≤ 62) as one integer, bit i for cell i: by a
     float product where the codes are exact in a double (numpy's integer products do not use
-    BLAS and take four times as long)."""
+    BLAS)."""
     n = known.shape[1]
     if n > 52:
         return known.astype(np.int64) @ (np.int64(1) << np.arange(n, dtype=np.int64))
