@@ -2,8 +2,8 @@
 :mod:`ingest.block_size`.
 
 Each case is one block's read box (its square and buffer) modelled as a worker models it
-(``survey`` with the block's extent, then the reduction figures of its square, its allocator
-keeping freed memory), in a fresh process; its peak RSS less the process's own before the
+(``survey`` with the block's extent, the model beyond the ground within the block's margin, then
+the reduction figures, its allocator keeping freed memory), in a fresh process; its peak RSS less the process's own before the
 block's points are read. Beside it, what :func:`ingest.block_size.block_bytes` predicts for
 the same box and points: the prediction must not fall short, or a worker could exceed its memory.
 
@@ -34,6 +34,7 @@ CASES: list[tuple[str, Any, float]] = [
 
 def _run(path: str, side: float) -> None:
     """One block's model in this process; prints its points, area and peak over the base as JSON."""
+    from ingest.blocked import BUFFER, MARGIN
     from ingest.pipeline import IngestOptions, survey
     from ingest.pyramid import reduction_stats
     from ingest.readers import read
@@ -47,8 +48,11 @@ def _run(path: str, side: float) -> None:
     x0, y0 = cloud.bounds[0], cloud.bounds[1]
     box = (x0, y0, x0 + side, y0 + side)
     t0 = time.perf_counter()
+    inner = BUFFER - MARGIN  # the model beyond the ground is made within the margin, as a worker's
+    model_box = (box[0] + inner, box[1] + inner, box[2] - inner, box[3] - inner)
     with one_blas_thread():
-        s = survey(cloud, options=IngestOptions(extent=box, flat_threshold=0.3), measure=False)
+        options = IngestOptions(extent=box, flat_threshold=0.3, model_box=model_box)
+        s = survey(cloud, options=options, measure=False)
         reduction_stats(s.dtm, s.model, n=SUBGRID)
     doc = {"points": len(cloud), "km2": side * side / 1e6, "peak_mib": peak_mib() - base}
     print(json.dumps({**doc, "seconds": time.perf_counter() - t0}))
