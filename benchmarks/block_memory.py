@@ -3,9 +3,10 @@
 
 Each case is one block's read box (its square and buffer) modelled as a worker models it
 (``survey`` with the block's extent, the model beyond the ground within the block's margin, then
-the reduction figures, its allocator keeping freed memory), in a fresh process; its peak RSS less the process's own before the
-block's points are read. Beside it, what :func:`ingest.block_size.block_bytes` predicts for
-the same box and points: the prediction must not fall short, or a worker could exceed its memory.
+the reduction figures, its allocator keeping freed memory), in a fresh process; its peak RSS
+less the process's own before the block's points are read. Beside it, what
+:func:`ingest.block_size.block_bytes` predicts for the same box and points: the prediction must
+not fall short, or a worker could exceed its memory.
 
     python -m benchmarks.block_memory
 """
