@@ -35,7 +35,7 @@ def command(
     exclude: tuple[int, ...],
 ) -> None:
     """Classify every point as ASPRS does: 2 ground, 3/4/5 low, medium and high vegetation,
-    6 building, 1 other.
+    6 building, 1 other, 18 high noise (more than 150 m over the ground: birds, clouds).
 
     Cells whose highest return stands more than 2 m over the ground are told apart by the
     texture of the heights (buildings are smooth, crowns rough) and by double echoes, as in
