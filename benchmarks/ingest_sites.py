@@ -1,12 +1,13 @@
 """End-to-end `tdb ingest` on the four ISPRS site clouds, beside the floor and a peer (issue 25).
 
 Per site, each in a fresh process, one after another (nothing else running, the plain
-environment): reading the file with laspy (the floor any ingest pays), a whole `tdb ingest` into a
-new database (ground, dense model, categories, reduction, evidence, objects, written), and pysmrf's
-ground filter with PDAL's default parameters and its own bare-earth DTM (its `classify` returns
-one at its 1 m cell), then a 0.5 m DEM of its ground points with voids filled
-(`create_dem(..., inpaint=True)`), the nearest thing to what tdb stores. Seconds, points per second,
-seconds per km² of the survey's extent, and each process's peak memory.
+environment): reading the file with laspy (the floor any ingest pays), a whole `tdb ingest` into
+a new database (ground, dense model, categories, reduction, evidence, objects, written; three
+times, the median kept), and pysmrf's ground filter with PDAL's default parameters and its own
+bare-earth DTM (its `classify` returns one at its 1 m cell), then a 0.5 m DEM of its ground
+points with voids filled (`create_dem(..., inpaint=True)`), the nearest thing to what tdb
+stores. Seconds, points per second, seconds per km² of the survey's extent, and each process's
+peak memory.
 
     python -m benchmarks.ingest_sites [--sites CSite1_red1,CSite2_orig,FSite5_orig,FSite6_orig]
 """
@@ -21,7 +22,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from benchmarks.common import DATA, run_child, save
+from benchmarks.common import DATA, median_run, run_child, save
 from tdb.memory import peak_mib
 
 SITES = ("CSite1_red1", "CSite2_orig", "FSite5_orig", "FSite6_orig")
@@ -86,8 +87,13 @@ def main() -> None:
             continue
         runs = {}
         for kind in KINDS:
-            with tempfile.TemporaryDirectory() as tmp:
-                r = run_child("ingest_sites", kind, str(src), str(Path(tmp) / "s.tdb"))
+
+            def once(_: int, kind: str = kind, src: Path = src) -> dict[str, Any]:
+                with tempfile.TemporaryDirectory() as tmp:
+                    return run_child("ingest_sites", kind, str(src), str(Path(tmp) / "s.tdb"))
+
+            # tdb's ingest is the figure the targets read: the median of three; the peer's run once
+            r = median_run(once) if kind == "ingest" else once(0)
             r["points_per_s"] = r["points"] / r["seconds"]
             r["s_per_km2"] = r["seconds"] / r["km2"]
             runs[kind] = r
