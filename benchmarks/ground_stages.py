@@ -79,7 +79,7 @@ def ablation(workers: int) -> dict[str, Any]:
             for n, t in zip(names, table, strict=True)
         },
         "tuned": names[tuned],
-        "held_out": {site: names[i] for site, i in held.items() if site.startswith("ISPRS")},
+        "held_out": {site: names[i] for site, i in held.items() if family(site) == "isprs"},
         "held_out_isprs": _held_mean(table, pairs, held),
     }
 
@@ -92,7 +92,7 @@ def _families(pairs: list[tuple[str, str]]) -> dict[str, list[str]]:
 
 
 def _held_mean(table: list[dict[str, float]], pairs: list[tuple[str, str]], held: dict[str, int]) -> float:
-    return float(np.mean([table[held[site]][sample] for sample, site in pairs if site.startswith("ISPRS")]))
+    return float(np.mean([table[held[site]][sample] for sample, site in pairs if family(site) == "isprs"]))
 
 
 def limits(workers: int) -> dict[str, Any]:

@@ -67,7 +67,7 @@ from ingest.pipeline import IngestOptions, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
 from ingest.readers import RECORD, from_records, in_box, iter_records
 from ingest.spool import Spool
-from tdb.bbox import check_bbox, clip_bbox
+from tdb.bbox import check_bbox, clip_bbox, points_in_box
 from tdb.categories import NO_DATA
 from tdb.classes import excluded
 from tdb.crs import as_crs
@@ -336,11 +336,6 @@ def _scatter(
     return Scattered(files, seen / occupied if occupied else 0.0, own, dict(squares))
 
 
-def _in_square(x: NDArray[np.float64], y: NDArray[np.float64], core: Box) -> NDArray[np.bool_]:
-    """Which of the points (``x``, ``y``) lie in the half-open square ``core``."""
-    return (x >= core[0]) & (x < core[2]) & (y >= core[1]) & (y < core[3])
-
-
 def _touched(grown: NDArray[np.float64], box: Box) -> NDArray[np.intp]:
     return np.flatnonzero(
         (grown[:, 0] <= box[2]) & (grown[:, 2] >= box[0]) & (grown[:, 1] <= box[3]) & (grown[:, 3] >= box[1])
@@ -499,7 +494,10 @@ def _pilot_threshold(
     for blk, path in zip(blocks, sc.files):
         if path.exists() and overlaps(blk.core, around):
             rec = np.fromfile(path, RECORD)
-            parts.append(rec[_in_square(rec["x"], rec["y"], blk.core) & _in_square(rec["x"], rec["y"], around)])
+            x, y = rec["x"], rec["y"]
+            parts.append(
+                rec[points_in_box(x, y, blk.core, closed=False) & points_in_box(x, y, around, closed=False)]
+            )
     rec = np.concatenate(parts)
     cloud = from_records(rec[np.lexsort((rec["z"], rec["y"], rec["x"]))], crs=crs, source="pilot square")
     # the blocks' extents together span the survey's bounds, where a one-piece grid ends
@@ -536,7 +534,7 @@ def _one_block_at(
 def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str) -> BlockResult | None:
     """Model one block from its points (``RECORD`` rows) and keep what lies in its own square."""
     x0, y0, x1, y1 = blk.core
-    own = _in_square(rec["x"], rec["y"], blk.core)
+    own = points_in_box(rec["x"], rec["y"], blk.core, closed=False)
     if not own.any() or len(rec) < 3:
         return None
     cloud = from_records(rec, crs=crs, source=source)
@@ -576,7 +574,7 @@ def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, sourc
         points=(m.x[on], m.y[on], m.z[on], m.n[on]),
         reduction=reduction,
         points_read=int(own.sum()),
-        ground=int((s.ground & _in_square(s.cloud.xyz[:, 0], s.cloud.xyz[:, 1], blk.core)).sum()),
+        ground=int((s.ground & points_in_box(s.cloud.xyz[:, 0], s.cloud.xyz[:, 1], blk.core, closed=False)).sum()),
         excluded=int((excluded(cloud.classification, o.exclude) & own).sum()),
         noise=s.noise,
         flat_threshold=s.flat_threshold,

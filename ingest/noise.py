@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.bbox import points_in_box
 from tdb.kdtree import plan_tree
 from tdb.tiles import key_pair, tile_key
 
@@ -100,11 +101,6 @@ def fullest_square(counts: dict[tuple[int, int], int]) -> tuple[float, float, fl
     return (i * PILOT_SQUARE, j * PILOT_SQUARE, (i + 1) * PILOT_SQUARE, (j + 1) * PILOT_SQUARE)
 
 
-def in_box(xy: NDArray[np.float64], box: tuple[float, float, float, float]) -> NDArray[np.bool_]:
-    """Which of the points lie in the half-open ``box``."""
-    return (xy[:, 0] >= box[0]) & (xy[:, 0] < box[2]) & (xy[:, 1] >= box[1]) & (xy[:, 1] < box[3])
-
-
 def flat_threshold_for(noise: float) -> float:
     """The height range (m) under which a tile is flat: ``NOISE_FACTOR`` × the ground noise, at
     least ``MIN_FLAT``, in whole centimetres."""
@@ -114,4 +110,4 @@ def flat_threshold_for(noise: float) -> float:
 def pilot_threshold(ground_xyz: NDArray[np.float64], square: tuple[float, float, float, float]) -> float:
     """The survey's flat threshold from the noise of its ground points in ``square``."""
     xyz = np.asarray(ground_xyz, float)
-    return flat_threshold_for(ground_noise(xyz[in_box(xyz, square)]))
+    return flat_threshold_for(ground_noise(xyz[points_in_box(xyz[:, 0], xyz[:, 1], square, closed=False)]))

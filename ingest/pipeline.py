@@ -121,7 +121,7 @@ def survey(
         metric, method=o.method, progress=report, exclude=o.exclude, density=o.density, extent=extent
     )
     if o.model_box is not None:
-        inside = np.flatnonzero(points_in_box(metric.xyz, o.model_box))
+        inside = np.flatnonzero(points_in_box(metric.xyz[:, 0], metric.xyz[:, 1], o.model_box))
         metric, ground = metric.take(inside), ground[inside]
     report("dense model", 0, 1)
     gxyz = metric.xyz[ground]

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tdb.atomic import atomic_path
-from tdb.bbox import column_range
+from tdb.bbox import column_range, points_in_box
 from tdb.cloud import PointCloud, check_finite, check_spread, from_arrays
 from tdb.errors import FormatError, InputError, TdbIOError
 from tdb.options import LabelScheme, parse
@@ -147,8 +147,7 @@ def from_records(rec: NDArray[Any], *, crs: Any, source: str) -> PointCloud:
 
 def in_box(rec: NDArray[Any], box: Box) -> NDArray[np.bool_]:
     """Which points lie in ``box`` (x0, y0, x1, y1; edges included)."""
-    x0, y0, x1, y1 = box
-    return np.asarray((rec["x"] >= x0) & (rec["x"] <= x1) & (rec["y"] >= y0) & (rec["y"] <= y1))
+    return points_in_box(rec["x"], rec["y"], box)
 
 
 def read_box(path: str | os.PathLike[str], box: Box, *, chunk_size: int = 1_000_000) -> PointCloud:

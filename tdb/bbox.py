@@ -64,8 +64,10 @@ def column_range(points: NDArray[Any]) -> tuple[NDArray[np.float64], NDArray[np.
     return lo, hi
 
 
-def points_in_box(xy: NDArray[Any], box: Box) -> NDArray[np.bool_]:
-    """Which of the points ``xy`` (N, ≥ 2: x and y first) lie in ``box`` (edges included)."""
+def points_in_box(x: NDArray[Any], y: NDArray[Any], box: Box, *, closed: bool = True) -> NDArray[np.bool_]:
+    """Which of the points (``x``, ``y``) lie in ``box``: its east and north edges included where
+    ``closed``, else left to the box beyond (a half-open box, so that boxes side by side share no
+    point)."""
     x0, y0, x1, y1 = box
-    x, y = xy[:, 0], xy[:, 1]
-    return np.asarray((x >= x0) & (x <= x1) & (y >= y0) & (y <= y1))
+    east, north = (x <= x1, y <= y1) if closed else (x < x1, y < y1)
+    return np.asarray((x >= x0) & east & (y >= y0) & north)

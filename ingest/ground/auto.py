@@ -45,6 +45,9 @@ from tdb.errors import InputError
 from tdb.fill import NearestFill, fill_lines, fill_nearest
 from tdb.options import GroundStage
 
+# each point's return number and its pulse's number of returns, where known
+Returns = tuple[NDArray[np.integer[Any]], NDArray[np.integer[Any]]] | None
+
 
 @dataclass(frozen=True)
 class AutoParams:
@@ -98,7 +101,7 @@ def auto_ground(
     xyz: NDArray[np.float64],
     *,
     params: AutoParams | None = None,
-    returns: tuple[NDArray[np.integer[Any]], NDArray[np.integer[Any]]] | None = None,
+    returns: Returns = None,
     density: float | None = None,
     extent: tuple[float, float, float, float] | None = None,
 ) -> NDArray[np.bool_]:
@@ -196,7 +199,7 @@ def _last_stages(
     h: NDArray[np.float64],
     is_ground: NDArray[np.bool_],
     p: AutoParams,
-    returns: tuple[NDArray[np.integer[Any]], NDArray[np.integer[Any]]] | None,
+    returns: Returns,
 ) -> NDArray[np.bool_]:
     """The ground once the passes are settled: free-standing walls join it, one-point pits and
     multipath scatter leave it (each unless ``p.skip`` names it)."""
@@ -217,7 +220,7 @@ def _walls(
     h: NDArray[np.float64],
     is_ground: NDArray[np.bool_],
     p: AutoParams,
-    returns: tuple[NDArray[np.integer[Any]], NDArray[np.integer[Any]]] | None,
+    returns: Returns,
 ) -> NDArray[np.bool_]:
     """Points of free-standing walls (:func:`ingest.ground.earthworks.narrow_walls`), from each
     point's height ``h`` above the settled ground surface and, where known, each point's return
