@@ -10,7 +10,7 @@ from typing import Any
 
 from benchmarks.common import RESULTS, ROOT
 from benchmarks.report_feature_peers import feature_peers_section
-from benchmarks.report_objects import objects_section
+from benchmarks.report_objects import crown_base_section, objects_section
 
 SOHN_SITE = RESULTS / "sohn_speed.json"
 
@@ -867,6 +867,8 @@ def main() -> None:
     feature_peers_section(out, peers, _machine(peers) if peers else "", densities)
     cv = _load("objects_cv")
     objects_section(out, cv, _load("objects_speed"), _machine(cv) if cv else "")
+    crown_base = _load("crown_base_cv")
+    crown_base_section(out, crown_base, _machine(crown_base) if crown_base else "")
     out += [
         "## History",
         "",

@@ -108,3 +108,39 @@ def objects_section(
             f"{i['without_objects']:.1f} s without (**{i['slowdown_pct']:+.1f} %**).",
         ]
     out.append("")
+
+
+def crown_base_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> None:
+    """The crown base's leave-one-group-out choice on the crown diameter (crown_base_cv.json)."""
+    if doc is None:
+        return
+    shares = doc["shares"]
+    out += [
+        "## The crown base, chosen on the crown diameter (issue 28)",
+        "",
+        "`python -m benchmarks.crown_base_cv`: the synthetic scenes of the section above (300 m, 2, 8 and 20 "
+        "pulses/m²), the other tree settings as shipped. A segment's cells lower than the share × its top are "
+        "no part of its crown (`TreeParams.crown_base`; None: every cell). Crown ⌀ RMSE in m per case; a "
+        "share is chosen by leave-one-group-out on the mean over each seed's densities; seeds 11–14 never "
+        f"chose. Chosen on all: {doc['tuned']} (shipped: {doc['default']}); held out per seed: "
+        + ", ".join(f"{g} {h['share']} ({_f(h['diameter_rmse'])} m)" for g, h in doc["held_out"].items())
+        + f". Machine: {machine}.",
+        "",
+        "| case | " + " | ".join(shares) + " |",
+        "|---|" + "---|" * len(shares),
+    ]
+    for name, c in doc["cases"].items():
+        out.append(f"| {name} | " + " | ".join(_f(c["shares"][s]["diameter_rmse"]) for s in shares) + " |")
+    for label, seeds in (("seeds 1–4", False), ("seeds 11–14 (never chosen on)", True)):
+        rows = [c for c in doc["cases"].values() if (int(c["group"].split()[1]) > 10) == seeds]
+        means = [np.mean([r["shares"][s]["diameter_rmse"] for r in rows]) for s in shares]
+        out.append(f"| **mean, {label}** | " + " | ".join(_f(float(m)) for m in means) + " |")
+    forest = doc.get("forest")
+    if forest:
+        out += [
+            "",
+            "MixedConifer (no setting chosen on it), crown overlap with its `treeID` hulls / tree F1: "
+            + ", ".join(f"{s} {_f(forest[s]['crown_overlap'])} / {_f(forest[s]['f1'])}" for s in shares)
+            + ".",
+        ]
+    out.append("")

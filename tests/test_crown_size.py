@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ingest.objects.crown_size import crown_diameters
+from ingest.objects.crown_size import UNDER_BASE, crown_diameters, under_base
 
 
 def _disks(centres: list[tuple[float, float]], radius: float, size: int = 80) -> np.ndarray:
@@ -67,3 +67,57 @@ def test_a_crown_hemmed_in_by_others_keeps_its_area():
 
 def test_no_crowns():
     assert len(crown_diameters(np.full((5, 5), -1), 1.0)) == 0
+
+
+def _domes(trees: list[tuple[float, float, float, float]], size: int = 80) -> np.ndarray:
+    """Canopy heights of crowns (x, y, radius in cells, height), each reaching down to 0.4 of its
+    height at its rim; the highest crown over each cell shows."""
+    j, i = np.mgrid[0:size, 0:size] + 0.5
+    canopy = np.full((size, size), np.nan)
+    for cx, cy, r, h in trees:
+        u = np.hypot(i - cx, j - cy) / r
+        canopy = np.fmax(canopy, np.where(u <= 1, h * (1 - 0.6 * u**2), np.nan))
+    return canopy
+
+
+def test_a_lower_crown_captured_by_a_taller_one_leaves_its_diameter_as_it_was():
+    """One segment holds a tall crown and the lower one beside it (the climb led up the tall
+    crown's flank): by area it reads far too wide. Under a base of 0.35 of the top the lower
+    crown is canopy of no measured crown, and the tall one reads its own diameter."""
+    radius = 6.0
+    canopy = _domes([(30.3, 30.6, radius, 20.0), (40.5, 31.0, 7.0, 6.0)])
+    captured = np.where(np.isfinite(canopy), 0, -1)
+    wide = crown_diameters(captured, 1.0)[0]
+    cut = under_base(captured, canopy, 0.35)
+    assert wide > 2 * radius + 3
+    assert (cut == UNDER_BASE).sum() > 50
+    assert abs(crown_diameters(cut, 1.0)[0] - 2 * radius) <= np.sqrt(0.5)
+
+
+@settings(max_examples=40, deadline=None)
+@given(share=st.floats(0.05, 0.95), seed=st.integers(0, 10_000))
+def test_a_crown_base_only_takes_cells_below_it_and_never_a_top(share, seed):
+    rng = np.random.default_rng(seed)
+    canopy = rng.uniform(2, 30, (12, 14))
+    labels = rng.integers(-1, 4, canopy.shape)
+    cut = under_base(labels, canopy, share)
+    assert np.array_equal(under_base(labels, canopy, None), labels)
+    assert np.array_equal(cut == labels, cut != UNDER_BASE)
+    for k in np.unique(labels[labels >= 0]):
+        top = canopy[labels == k].max()
+        assert np.array_equal(cut[labels == k] == UNDER_BASE, canopy[labels == k] < share * top)
+
+
+def test_a_crown_beside_captured_cells_is_read_by_its_free_edge():
+    """A tall crown's segment took the near part of a lower crown; under its base that part is
+    canopy of no measured crown, not ground: the lower crown still meets a crown there and
+    reads its diameter from its free edge, not from the area it kept."""
+    canopy = _domes([(30.3, 30.6, 6.0, 20.0), (41.5, 31.0, 7.0, 6.0)])
+    j, i = np.mgrid[0:80, 0:80] + 0.5
+    near_tall = np.hypot(i - 30.3, j - 30.6) <= 9.0
+    labels = np.where(np.isfinite(canopy), np.where(near_tall, 0, 1), -1)
+    cut = under_base(labels, canopy, 0.35)
+    kept = (cut == 1).sum()
+    found = crown_diameters(cut, 1.0)[1]
+    assert found > 2 * np.sqrt(kept / np.pi) + 1
+    assert abs(found - 14.0) <= 1.0

@@ -6,6 +6,11 @@ wrong, one crown gains what the other loses. The crown's free edge, where it mee
 the gaps of the canopy, is its own: a circle fitted to it gives the diameter, as a forester
 reads a crown's spread from its outer edge. The fit needs the free edge to run at least half way
 round; a crown hemmed in by others keeps its area's diameter.
+
+A crown reaches down to its base, a share of its tree's height; the cells of a segment lower than
+that are a lower crown's, which the taller crown's flank captured where the climb from the lower
+crown's edge led up it (most often between sparse returns). They are canopy of no measured crown
+(:data:`UNDER_BASE`): no part of the taller crown, and no free edge either.
 """
 
 from __future__ import annotations
@@ -17,10 +22,28 @@ MIN_EDGE_CELLS = 6  # fewer free edge cells fit no circle
 MIN_ARC = np.pi  # rad: the free edge must run at least half way round the fitted centre
 # The fitted radius against the area's: outside these bounds the edge is no circle's arc
 RADIUS_BOUNDS = (0.5, 2.0)
+NO_CROWN = -1  # a label: no crown, the ground or a gap of the canopy
+UNDER_BASE = -2  # a label: canopy under the base of the crown that captured it
+
+
+def under_base(labels: NDArray[np.intp], canopy: NDArray[np.float64], share: float | None) -> NDArray[np.intp]:
+    """``labels`` (segments 0 … n − 1, :data:`NO_CROWN` elsewhere) with each segment's cells lower
+    than ``share`` × its highest cell of ``canopy`` (heights over the ground) set to
+    :data:`UNDER_BASE`; None: as they are."""
+    out = np.array(labels, np.intp, copy=True)
+    on = out >= 0
+    if share is None or not on.any():
+        return out
+    height = np.where(on & np.isfinite(canopy), canopy, -np.inf)
+    apex = np.full(int(out.max()) + 1, -np.inf)
+    np.maximum.at(apex, out[on], height[on])
+    out[on & (height < share * apex[np.maximum(out, 0)])] = UNDER_BASE
+    return out
 
 
 def crown_diameters(labels: NDArray[np.intp], cell: float) -> NDArray[np.float64]:
-    """Crown diameter (m) of each segment 0 … n − 1 of ``labels`` (−1: no crown), cells of ``cell`` m.
+    """Crown diameter (m) of each segment 0 … n − 1 of ``labels`` (:data:`NO_CROWN`, :data:`UNDER_BASE`),
+    cells of ``cell`` m.
 
     The diameter of the circle of the segment's area; for a segment that meets another, the
     circle fitted (least squares, Kåsa) to the centres of its free edge cells, half a cell out to
@@ -47,12 +70,12 @@ def crown_diameters(labels: NDArray[np.intp], cell: float) -> NDArray[np.float64
 
 def _edges(labels: NDArray[np.intp], n: int) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """The crown cells with a 4-neighbour outside every crown (the free edge), and per segment
-    whether any of its cells has a 4-neighbour in another segment."""
-    pad = np.pad(labels, 1, constant_values=-1)
+    whether any of its cells has a 4-neighbour in another segment or under a crown's base."""
+    pad = np.pad(labels, 1, constant_values=NO_CROWN)
     neighbours = (pad[:-2, 1:-1], pad[2:, 1:-1], pad[1:-1, :-2], pad[1:-1, 2:])
     inside = labels >= 0
-    free = inside & np.logical_or.reduce([nb < 0 for nb in neighbours])
-    shared = inside & np.logical_or.reduce([(nb >= 0) & (nb != labels) for nb in neighbours])
+    free = inside & np.logical_or.reduce([nb == NO_CROWN for nb in neighbours])
+    shared = inside & np.logical_or.reduce([(nb != NO_CROWN) & (nb != labels) for nb in neighbours])
     return free, np.bincount(labels[shared], minlength=n) > 0
 
 

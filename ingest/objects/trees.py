@@ -25,7 +25,7 @@ from ingest.ground.grids import Grid
 from ingest.objects.apex import sampling_shortfall
 from ingest.objects.climb import climb
 from ingest.objects.cover import Cover, cell_size
-from ingest.objects.crown_size import crown_diameters
+from ingest.objects.crown_size import crown_diameters, under_base
 from ingest.objects.crowns import choose_scales
 from ingest.objects.heights import TopRaster
 from tdb.cloud import HIGH_VEGETATION, MEDIUM_VEGETATION, PointCloud
@@ -45,8 +45,12 @@ class TreeParams:
     penetration (a hole with crown all round it) in pulse spacings; the contour's lift elsewhere,
     at the foot of a taller crown's edge, is undone (:func:`crown_surface`; None: never).
     ``noise`` (m): the canopy model's noise, the floor of the paraboloids' residuals.
-    ``min_crown_area`` (m²): a smaller segment is not a tree. The scales, the noise and the
-    hole width were chosen by leave-one-group-out cross-validation (``benchmarks/objects_cv.py``).
+    ``min_crown_area`` (m²): a smaller segment is not a tree. ``crown_base``: a crown's cells lie
+    above this share of its top's height; lower cells of its segment are a lower crown's edge that
+    it captured (:func:`ingest.objects.crown_size.under_base`; None: every cell). The scales, the
+    noise and the hole width were chosen by leave-one-group-out cross-validation
+    (``benchmarks/objects_cv.py``), the crown base the same way on the crown diameter
+    (``benchmarks/crown_base_cv.py``).
     """
 
     scales: tuple[float, ...] = (0.35, 0.7, 1.4)
@@ -56,6 +60,7 @@ class TreeParams:
     noise: float = 0.4
     min_crown_area: float = 2.0
     hole_spacings: float | None = 4.0
+    crown_base: float | None = 0.35
 
 
 def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = None) -> list[Tree]:
@@ -80,7 +85,7 @@ def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = N
     scales = [climb(smoothed(canopy, mask, s / grid.cell), mask) for s in sorted(p.scales, reverse=True)]
     min_cells = max(1, int(np.ceil(p.min_crown_area / grid.cell**2)))
     labels = choose_scales(scales, canopy, grid.cell, noise=p.noise, min_cells=min_cells)
-    trees = _measure(labels, top, xyz, min_cells)
+    trees = _measure(labels, under_base(labels, canopy, p.crown_base), top, xyz, min_cells)
     crown = np.where(tall[near], labels.ravel()[top.cells_of(xyz[:, :2])], -1)
     shortfall = sampling_shortfall(crown, cover.height[near], xyz[:, :2])
     return [dataclasses.replace(t, height=t.height + shortfall) for t in trees]
@@ -145,7 +150,11 @@ def smoothed(surface: NDArray[np.float64], mask: NDArray[np.bool_], sigma: float
     return np.where(mask, ndimage.gaussian_filter(np.where(mask, surface, 0.0), sigma, mode="constant"), -np.inf)
 
 
-def _measure(labels: NDArray[np.intp], top: TopRaster, xyz: NDArray[np.float64], min_cells: int) -> list[Tree]:
+def _measure(
+    labels: NDArray[np.intp], crowns: NDArray[np.intp], top: TopRaster, xyz: NDArray[np.float64], min_cells: int
+) -> list[Tree]:
+    """The trees of the segments ``labels``: each one's highest return, and the crown and its
+    diameter from the segment's cells above its base (``crowns``, :func:`under_base`)."""
     on = (labels >= 0) & (top.index >= 0)
     n = int(labels.max()) + 1 if (labels >= 0).any() else 0
     if n == 0:
@@ -161,9 +170,9 @@ def _measure(labels: NDArray[np.intp], top: TopRaster, xyz: NDArray[np.float64],
     keep = (cells >= min_cells) & (best >= 0)
     g = top.grid
     shapes = outlines(
-        np.where(keep[np.maximum(labels, 0)] & (labels >= 0), labels, -1), x0=g.x0, y0=g.y0, cell=g.cell
+        np.where(keep[np.maximum(crowns, 0)] & (crowns >= 0), crowns, -1), x0=g.x0, y0=g.y0, cell=g.cell
     )
-    diameter = crown_diameters(labels, top.grid.cell)
+    diameter = crown_diameters(crowns, top.grid.cell)
     trees = [
         Tree(
             float(xyz[best[k], 0]),
