@@ -3,7 +3,8 @@
 A roof region's outline on the texture raster is off by up to a cell. The footprint is
 drawn instead where the nearest return is a roof return of that building, on a raster
 ``refine`` times finer: the edge then falls half-way between the last roof return and the
-first return beside it, whatever the density.
+first return beside it, whatever the density, over the cells within :data:`REACH` texture
+cells of the region; beyond them is no building's (a void beside a roof is no part of it).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from tdb.kdtree import plan_tree
 from tdb.objects import Building
 from tdb.outlines import outlines
 
+REACH = 1  # texture cells: how far from a region's outline its footprint's edge may fall
 ROOF_TOP = 0.98  # quantile of the roof returns' heights taken as the roof's top (not an antenna)
 
 
@@ -60,7 +62,7 @@ def find_buildings(
         mine = roofs[starts[k - 1] : starts[k]]
         if sl is None or len(mine) == 0:
             continue
-        shape = _footprint(tree, label, k, grid, sl, p)
+        shape = _footprint(tree, label, k, grid, regions[sl] == k, sl, p)
         if shape is None:
             continue
         height = float(np.quantile(cover.height[mine], ROOF_TOP))
@@ -69,18 +71,27 @@ def find_buildings(
 
 
 def _footprint(
-    tree: cKDTree, label: NDArray[np.intp], k: int, grid: Grid, sl: tuple[slice, slice], p: FootprintParams
+    tree: cKDTree,
+    label: NDArray[np.intp],
+    k: int,
+    grid: Grid,
+    region: NDArray[np.bool_],
+    sl: tuple[slice, slice],
+    p: FootprintParams,
 ) -> Any:
+    """The footprint of region ``k`` (``region``: its cells in the box ``sl`` of the texture grid)."""
     rows, cols = sl
     fine = grid.cell / p.refine
-    x0 = grid.x0 + (cols.start - 1) * grid.cell
-    y0 = grid.y0 + (rows.start - 1) * grid.cell
-    shape = ((rows.stop - rows.start + 2) * p.refine, (cols.stop - cols.start + 2) * p.refine)
-    fgrid = Grid(x0, y0, fine, shape)
+    x0 = grid.x0 + (cols.start - REACH) * grid.cell
+    y0 = grid.y0 + (rows.start - REACH) * grid.cell
+    reach = ndimage.binary_dilation(np.pad(region, REACH), np.ones((3, 3), bool), iterations=REACH)
+    near = np.kron(reach, np.ones((p.refine, p.refine), bool))
+    fgrid = Grid(x0, y0, fine, near.shape)
     xs, ys = fgrid.centres()
-    gx, gy = np.meshgrid(xs, ys)
-    _, nearest = tree.query(np.column_stack([gx.ravel(), gy.ravel()]))
-    mask = (label[nearest] == k).reshape(shape)
+    r, c = np.nonzero(near)
+    _, nearest = tree.query(np.column_stack([xs[c], ys[r]]))
+    mask = np.zeros(near.shape, bool)
+    mask[r, c] = label[nearest] == k
     lab, m = ndimage.label(mask, structure=np.ones((3, 3)))
     if m == 0:
         return None
