@@ -21,8 +21,6 @@ from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 from typing import Any
 
-import numpy as np
-
 from benchmarks.common import save
 from benchmarks.objects_cv import (
     DENSITIES,
@@ -96,11 +94,6 @@ def main() -> None:
             "default": repr(TreeParams().crown_base),
         },
     )
-
-
-def held_out_mean(doc: dict[str, Any]) -> float:
-    """The mean over the chosen-on groups of each one's RMSE with the share chosen without it."""
-    return float(np.mean([h["diameter_rmse"] for h in doc["held_out"].values()]))
 
 
 if __name__ == "__main__":

@@ -124,7 +124,8 @@ def crown_base_section(out: list[str], doc: dict[str, Any] | None, machine: str)
         "share is chosen by leave-one-group-out on the mean over each seed's densities; seeds 11–14 never "
         f"chose. Chosen on all: {doc['tuned']} (shipped: {doc['default']}); held out per seed: "
         + ", ".join(f"{g} {h['share']} ({_f(h['diameter_rmse'])} m)" for g, h in doc["held_out"].items())
-        + f". Machine: {machine}.",
+        + f"; their mean {_f(float(np.mean([h['diameter_rmse'] for h in doc['held_out'].values()])))} m. "
+        f"Machine: {machine}.",
         "",
         "| case | " + " | ".join(shares) + " |",
         "|---|" + "---|" * len(shares),
