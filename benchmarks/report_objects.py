@@ -140,8 +140,8 @@ def crown_base_section(out: list[str], doc: dict[str, Any] | None, machine: str)
     if forest:
         out += [
             "",
-            "MixedConifer (no setting chosen on it), crown overlap with its `treeID` hulls / tree F1: "
-            + ", ".join(f"{s} {_f(forest[s]['crown_overlap'])} / {_f(forest[s]['f1'])}" for s in shares)
+            "MixedConifer (no setting chosen on it), tree F1: "
+            + ", ".join(f"{s} {_f(forest[s]['f1'])}" for s in shares)
             + ".",
         ]
     out.append("")

@@ -10,7 +10,7 @@ round; a crown hemmed in by others keeps its area's diameter.
 A crown reaches down to its base, a share of its tree's height; the cells of a segment lower than
 that are a lower crown's, which the taller crown's flank captured where the climb from the lower
 crown's edge led up it (most often between sparse returns). They are canopy of no measured crown
-(:data:`UNDER_BASE`): no part of the taller crown, and no free edge either.
+(:data:`UNDER_BASE`): no part of the taller crown's diameter, and no free edge either.
 """
 
 from __future__ import annotations

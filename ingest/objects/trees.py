@@ -153,8 +153,11 @@ def smoothed(surface: NDArray[np.float64], mask: NDArray[np.bool_], sigma: float
 def _measure(
     labels: NDArray[np.intp], crowns: NDArray[np.intp], top: TopRaster, xyz: NDArray[np.float64], min_cells: int
 ) -> list[Tree]:
-    """The trees of the segments ``labels``: each one's highest return, and the crown and its
-    diameter from the segment's cells above its base (``crowns``, :func:`under_base`)."""
+    """The trees of the segments ``labels``: each one's highest return, its crown (the segment's
+    outline), and the diameter of the segment's cells above its base (``crowns``, :func:`under_base`).
+
+    The outline stays the segment's: change detection asks whether a later crown covers a tree's
+    top, and the top of a lower tree whose edge a taller crown captured lies under that capture."""
     on = (labels >= 0) & (top.index >= 0)
     n = int(labels.max()) + 1 if (labels >= 0).any() else 0
     if n == 0:
@@ -170,7 +173,7 @@ def _measure(
     keep = (cells >= min_cells) & (best >= 0)
     g = top.grid
     shapes = outlines(
-        np.where(keep[np.maximum(crowns, 0)] & (crowns >= 0), crowns, -1), x0=g.x0, y0=g.y0, cell=g.cell
+        np.where(keep[np.maximum(labels, 0)] & (labels >= 0), labels, -1), x0=g.x0, y0=g.y0, cell=g.cell
     )
     diameter = crown_diameters(crowns, top.grid.cell)
     trees = [
