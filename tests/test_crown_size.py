@@ -98,14 +98,16 @@ def test_a_lower_crown_captured_by_a_taller_one_leaves_its_diameter_as_it_was():
 @given(share=st.floats(0.05, 0.95), seed=st.integers(0, 10_000))
 def test_a_crown_base_only_takes_cells_below_it_and_never_a_top(share, seed):
     rng = np.random.default_rng(seed)
-    canopy = rng.uniform(2, 30, (12, 14))
+    canopy = rng.uniform(-3, 30, (12, 14))
     labels = rng.integers(-1, 4, canopy.shape)
     cut = under_base(labels, canopy, share)
     assert np.array_equal(under_base(labels, canopy, None), labels)
     assert np.array_equal(cut == labels, cut != UNDER_BASE)
     for k in np.unique(labels[labels >= 0]):
         top = canopy[labels == k].max()
-        assert np.array_equal(cut[labels == k] == UNDER_BASE, canopy[labels == k] < share * top)
+        below = (canopy[labels == k] < share * top) & (canopy[labels == k] < top)
+        assert np.array_equal(cut[labels == k] == UNDER_BASE, below)
+        assert (cut[labels == k] == k).any()
 
 
 def test_a_crown_beside_captured_cells_is_read_by_its_free_edge():

@@ -37,7 +37,9 @@ def under_base(labels: NDArray[np.intp], canopy: NDArray[np.float64], share: flo
     height = np.where(on & np.isfinite(canopy), canopy, -np.inf)
     apex = np.full(int(out.max()) + 1, -np.inf)
     np.maximum.at(apex, out[on], height[on])
-    out[on & (height < share * apex[np.maximum(out, 0)])] = UNDER_BASE
+    top = apex[np.maximum(out, 0)]
+    # a segment keeps its highest cell whatever the heights' sign: every segment keeps a crown
+    out[on & (height < share * top) & (height < top)] = UNDER_BASE
     return out
 
 
