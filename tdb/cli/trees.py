@@ -38,8 +38,10 @@ def command(
 
     The crowns are segmented on a canopy model smoothed at three scales, each cell climbing
     to its local maximum, and the scale is chosen crown by crown by paraboloid fits (Elmqvist
-    §2.3). A GeoPackage gets two layers, ``trees`` (crowns) and ``tree_tops`` (points); a
-    GeoJSON file gets the crowns, each with its top's x and y.
+    §2.3). The diameter is read over the crown above its base (0.35 of the tree's height),
+    where a taller crown's segment took in a lower crown's edge. A GeoPackage gets two layers,
+    ``trees`` (crowns) and ``tree_tops`` (points); a GeoJSON file gets the crowns, each with its
+    top's x and y.
 
     \b
     Examples:
