@@ -13,7 +13,6 @@ edge the crown diameter (:mod:`crown_size`).
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,7 +21,7 @@ from scipy import ndimage
 
 from ingest.ground.contour import ContourParams, relax_on
 from ingest.ground.grids import Grid
-from ingest.objects.apex import sampling_shortfall
+from ingest.objects.apex import crown_shortfalls
 from ingest.objects.climb import climb
 from ingest.objects.cover import Cover, cell_size
 from ingest.objects.crown_size import crown_diameters, under_base
@@ -85,10 +84,9 @@ def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = N
     scales = [climb(smoothed(canopy, mask, s / grid.cell), mask) for s in sorted(p.scales, reverse=True)]
     min_cells = max(1, int(np.ceil(p.min_crown_area / grid.cell**2)))
     labels = choose_scales(scales, canopy, grid.cell, noise=p.noise, min_cells=min_cells)
-    trees = _measure(labels, under_base(labels, canopy, p.crown_base), top, xyz, min_cells)
     crown = np.where(tall[near], labels.ravel()[top.cells_of(xyz[:, :2])], -1)
-    shortfall = sampling_shortfall(crown, cover.height[near], xyz[:, :2])
-    return [dataclasses.replace(t, height=t.height + shortfall) for t in trees]
+    shortfall = crown_shortfalls(crown, cover.height[near], xyz[:, :2])
+    return _measure(labels, under_base(labels, canopy, p.crown_base), top, xyz, min_cells, shortfall)
 
 
 def _inside(grid: Grid, xy: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -151,10 +149,16 @@ def smoothed(surface: NDArray[np.float64], mask: NDArray[np.bool_], sigma: float
 
 
 def _measure(
-    labels: NDArray[np.intp], crowns: NDArray[np.intp], top: TopRaster, xyz: NDArray[np.float64], min_cells: int
+    labels: NDArray[np.intp],
+    crowns: NDArray[np.intp],
+    top: TopRaster,
+    xyz: NDArray[np.float64],
+    min_cells: int,
+    shortfall: NDArray[np.float64],
 ) -> list[Tree]:
-    """The trees of the segments ``labels``: each one's highest return, its crown (the segment's
-    outline), and the diameter of the segment's cells above its base (``crowns``, :func:`under_base`).
+    """The trees of the segments ``labels``: each one's highest return, raised by its crown's
+    ``shortfall`` (:func:`crown_shortfalls`, by segment), its crown (the segment's outline), and
+    the diameter of the segment's cells above its base (``crowns``, :func:`under_base`).
 
     The outline stays the segment's: change detection asks whether a later crown covers a tree's
     top, and the top of a lower tree whose edge a taller crown captured lies under that capture."""
@@ -170,6 +174,9 @@ def _measure(
     best[lab[order][last]] = idx[order][last]
     height = np.full(n, np.nan)
     height[lab[order][last]] = h[order][last]
+    raised = np.zeros(n)
+    raised[: min(n, len(shortfall))] = shortfall[:n]
+    height += raised
     keep = (cells >= min_cells) & (best >= 0)
     g = top.grid
     shapes = outlines(
