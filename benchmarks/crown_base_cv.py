@@ -16,7 +16,6 @@ was made on: its tree F1 (a crown under 3 m is not scored).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 from typing import Any
@@ -29,21 +28,18 @@ from benchmarks.objects_cv import (
     choose,
     forest_case,
     found_trees,
+    run_tdb,
     synthetic_case,
 )
 from benchmarks.objects_score import score_trees
 from ingest.ground.tiling import available_cores
-from ingest.objects import ObjectParams, TreeParams, find_objects
-from tdb.classes import NOISE, excluded
+from ingest.objects import TreeParams
 
 SHARES: tuple[float | None, ...] = (None, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5)
 
 
 def _found(case: Any, share: float | None) -> Any:
-    params = ObjectParams(trees=dataclasses.replace(TreeParams(), crown_base=share))
-    return find_objects(
-        case.cloud, case.ground, case.dtm, params=params, skip=excluded(case.cloud.classification, NOISE)
-    )
+    return run_tdb(case, {"crown_base": share})[0]
 
 
 def _scene_scores(job: tuple[int, float]) -> tuple[str, str, dict[str, dict[str, float]]]:

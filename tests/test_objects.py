@@ -563,7 +563,7 @@ def test_each_crown_falls_short_by_its_own_depth_over_its_returns() -> None:
     u2 = ((xy[:, 0] - cx[k]) ** 2 + (xy[:, 1] - cy[k]) ** 2) / radius[k] ** 2
     seg = np.where(u2 < 1, k, -1)
     z = tall[k] * (1 - 0.6 * u2)
-    per = crown_shortfalls(seg, z, xy)
+    per = crown_shortfalls(seg, z, xy, n=len(cx))
     mean = sampling_shortfall(seg, z, xy)
     top = np.full(len(cx), np.nan)
     np.fmax.at(top, seg[seg >= 0], z[seg >= 0])

@@ -46,13 +46,12 @@ def sampling_shortfall(segment: NDArray[np.intp], height: NDArray[np.float64], x
 
 
 def crown_shortfalls(
-    segment: NDArray[np.intp], height: NDArray[np.float64], xy: NDArray[np.float64]
+    segment: NDArray[np.intp], height: NDArray[np.float64], xy: NDArray[np.float64], *, n: int
 ) -> NDArray[np.float64]:
-    """The shortfall (m) of each crown 0 … max(``segment``): the survey's law (:func:`sampling_shortfall`)
+    """The shortfall (m) of each crown 0 … ``n`` − 1: the survey's law (:func:`sampling_shortfall`)
     with each crown's own height and number of returns (the module's text); 0 for a crown with no
     returns, and for all where the survey has no shortfall to measure."""
     seg = np.asarray(segment, np.intp)
-    n = int(seg.max()) + 1 if seg.size else 0
     mean, alpha, measured = _survey_law(seg, height, xy)
     if mean == 0.0 or n == 0:
         return np.zeros(n)

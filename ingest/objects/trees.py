@@ -85,7 +85,7 @@ def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = N
     min_cells = max(1, int(np.ceil(p.min_crown_area / grid.cell**2)))
     labels = choose_scales(scales, canopy, grid.cell, noise=p.noise, min_cells=min_cells)
     crown = np.where(tall[near], labels.ravel()[top.cells_of(xyz[:, :2])], -1)
-    shortfall = crown_shortfalls(crown, cover.height[near], xyz[:, :2])
+    shortfall = crown_shortfalls(crown, cover.height[near], xyz[:, :2], n=int(labels.max()) + 1)
     return _measure(labels, under_base(labels, canopy, p.crown_base), top, xyz, min_cells, shortfall)
 
 
@@ -174,9 +174,7 @@ def _measure(
     best[lab[order][last]] = idx[order][last]
     height = np.full(n, np.nan)
     height[lab[order][last]] = h[order][last]
-    raised = np.zeros(n)
-    raised[: min(n, len(shortfall))] = shortfall[:n]
-    height += raised
+    height += shortfall
     keep = (cells >= min_cells) & (best >= 0)
     g = top.grid
     shapes = outlines(
