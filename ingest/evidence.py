@@ -10,6 +10,7 @@ from scipy import ndimage
 
 from tdb.evidence import LEVEL, SUPPORT_SPACINGS, TileEvidence
 from tdb.kdtree import plan_tree
+from tdb.median import median_filter
 from tdb.raster import Raster
 
 NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic's six terms
@@ -119,7 +120,7 @@ def tile_layer(
     raster = np.zeros(grid.size, np.float32)
     at = grid.cells_of_tiles(xg, yg)
     raster[at] = np.nan_to_num(lift, nan=0.0)
-    median = ndimage.median_filter(raster.reshape(grid.shape), size=window, mode="constant")
+    median = median_filter(raster.reshape(grid.shape), window, mode="constant")
     return np.maximum(median.ravel()[at].astype(float) - floor, 0.0)
 
 

@@ -38,6 +38,7 @@ from tdb.cloud import (
 from tdb.errors import TdbWarning
 from tdb.fill import fill_nearest
 from tdb.kdtree import plan_tree
+from tdb.median import median_filter
 from tdb.raster import Raster
 
 VEGETATION_CELL, BUILDING_CELL = 1, 2
@@ -210,7 +211,7 @@ def _cell_classes(
         # mixture may class it rough. Where its points lie on a plane it is a roof candidate
         # too, since the double echoes still tell a smooth crown from a roof; without them the
         # candidates are the mixture's alone.
-        smooth |= ndimage.median_filter(plane, size=3, mode="nearest")[tall] <= p.roof_departure
+        smooth |= median_filter(plane, 3, mode="nearest")[tall] <= p.roof_departure
     roof = np.zeros(tall.shape, bool)
     roof[tall] = smooth
     roof &= _roofs(roof, plane, top.grid.cell, p, echoes)

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
+
+from tdb.median import median_filter
 
 # Opposite neighbour pairs (row, col offsets) and their distance in cells.
 _LINES = (((0, 1), 1.0), ((1, 0), 1.0), ((1, 1), np.sqrt(2)), ((1, -1), np.sqrt(2)))
@@ -49,6 +50,6 @@ def median_texture(z: NDArray[np.float64], cell: float, *, size: int = 3) -> NDA
     otherwise read as vegetation.
     """
     return np.stack(
-        [ndimage.median_filter(t, size=size, mode="nearest") for t in (second_derivative(z), max_slope(z, cell))],
+        [median_filter(t, size, mode="nearest") for t in (second_derivative(z), max_slope(z, cell))],
         axis=-1,
     )
