@@ -183,7 +183,9 @@ def ground_stages_section(out: list[str]) -> None:
         "",
         "The stages' limits that change ISPRS labels, on a grid around the defaults (the default first): "
         + "; ".join(f"`{k}` {', '.join(map(str, v))}" for k, v in bounds["grid"].items())
-        + f". Tuned on all six sites: `{bounds['tuned_setting']}`. Total error %:",
+        + f". Tuned on all six sites: `{bounds['tuned_setting']}`"
+        + (f" (machine: {_machine(bounds)})" if "machine" in bounds else "")
+        + ". Total error %:",
         "",
     ]
     _held_out_table(out, bounds["rows"])

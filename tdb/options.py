@@ -41,6 +41,7 @@ class GroundStage(Option):
     WALLS = "walls"  # free-standing walls
     SPIKES = "spikes"  # one-point pits among the ground
     SUNKEN = "sunken"  # multipath scatter far below a void
+    REJOIN = "rejoin"  # low outliers by their neighbourhood that lie on the settled ground surface
 
 
 class LabelScheme(Option):

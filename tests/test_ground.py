@@ -230,6 +230,42 @@ def test_ground_under_a_canopy_is_no_low_outlier(seed, share, density):
     assert not flagged[good].any()
 
 
+def _closed_canopy(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Open ground on a 3 % slope around a 24 m closed canopy that lets a few lone returns reach
+    the ground: the cloud, those lone ground returns, and multipath points 6-30 m under them."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 100, (20_000, 2))
+    under = (np.abs(xy - 50) < 12).all(axis=1)
+    z = 0.03 * xy[:, 0] + np.where(under, rng.uniform(10, 20, len(xy)), rng.normal(0, 0.03, len(xy)))
+    lone = np.column_stack([rng.uniform(40, 60, (8, 2)), np.zeros(8)])
+    lone[:, 2] = 0.03 * lone[:, 0] + rng.normal(0, 0.03, 8)
+    deep = np.column_stack([rng.uniform(40, 60, (4, 2)), np.zeros(4)])
+    deep[:, 2] = 0.03 * deep[:, 0] - rng.uniform(6, 30, 4)
+    xyz = np.vstack([np.column_stack([xy, z]), lone, deep])
+    n = len(xy)
+    return xyz, np.arange(n, n + 8), np.arange(n + 8, n + 12)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_lone_return_under_a_closed_canopy_rejoins_the_ground(seed):
+    """Its neighbourhood is crowns, so it reads as a low outlier; it lies on the surface the rest of
+    the ground settles on, which a multipath point under it does not."""
+    from ingest.ground.auto import AutoParams, auto_ground
+    from tdb.options import GroundStage
+
+    xyz, lone, deep = _closed_canopy(seed)
+    flagged = lone[low_outliers(xyz)[lone]]
+    assert len(flagged) >= 2  # what the rejoin is for: the returns furthest under the canopy
+    ground = classify_ground(xyz)
+    assert ground[lone].all()
+    assert not ground[deep].any()
+    without = auto_ground(xyz, params=AutoParams(skip=frozenset({GroundStage.REJOIN})))
+    assert not without[flagged].any()
+    others = np.ones(len(xyz), bool)
+    others[flagged] = False
+    np.testing.assert_array_equal(ground[others], without[others])
+
+
 @pytest.mark.slow
 def test_a_part_filtered_in_its_box_labels_its_square_as_the_whole_survey_does():
     """FSite5, a 512 m square in the south of the survey where the points stop short of the part's
