@@ -61,6 +61,7 @@ def build(
     out: dict[int, LevelTiles] = {}
     kept_levels: list[KeptNodes] = []
     finest_grid: NodeLattice | None = None
+    finest_error: NDArray[np.float64] | None = None
     bits: list[int] = []
     for level in levels:
         grid = node_grid(dtm, level, n=n)
@@ -71,7 +72,10 @@ def build(
         out[level] = LevelTiles(level, ti * level, tj * level, codes)
         if level == min(levels):
             finest_grid = grid
-            keep = refine(tiles, codes, ti, tj, n=n, budget=budget_for(grid, n=n), relief=flat_threshold)
+            refined = refine(
+                tiles, codes, ti, tj, n=n, budget=budget_for(grid, n=n), relief=flat_threshold, measure=measure
+            )
+            keep, finest_error = refined.keep, refined.line_error
         else:
             keep = paper_keep(tiles, codes, n=n)
         kept_levels.append(kept_nodes(grid, keep, ti, tj, n=n, unit=unit))
@@ -84,7 +88,7 @@ def build(
     model = TerrainModel(out, x[good], y[good], z[good], mask[good])
     if not measure:
         return model
-    stats = reduction_stats(dtm, model, n=n, dense=finest_grid)
+    stats = reduction_stats(dtm, model, n=n, dense=finest_grid, line_error=finest_error)
     return TerrainModel(model.levels, model.x, model.y, model.z, model.n, stats)
 
 
@@ -127,12 +131,19 @@ def _owned_nodes(xg: NDArray[np.int64], yg: NDArray[np.int64], level: int, n: in
 
 
 def reduction_stats(
-    dtm: Raster, model: TerrainModel, *, n: int = SUBGRID, dense: NodeLattice | None = None
+    dtm: Raster,
+    model: TerrainModel,
+    *,
+    n: int = SUBGRID,
+    dense: NodeLattice | None = None,
+    line_error: NDArray[np.float64] | None = None,
 ) -> ReductionStats:
     """Share of dense posts removed and the vertical error of the surface rebuilt from the kept 2 m
     points, at every post: the line rebuild that queries and change detection read
     (:mod:`tdb.surface`), tile by tile from the kept points' lattice, so no triangulation.
-    ``dense``: the finest level's node lattice of ``dtm`` where the caller has it already."""
+    ``dense``: the finest level's node lattice of ``dtm`` where the caller has it already;
+    ``line_error``: that rebuild's error at each node of the finest level's tiles (T, n*n, as
+    :func:`ingest.reduce.refine` leaves it), where the caller has it already."""
     valid = ~np.isnan(dtm.data)
     posts = int(valid.sum())
     finest = min(model.levels)
@@ -140,10 +151,12 @@ def reduction_stats(
     rmse = max_error = None
     tiles = model.levels[finest]
     if keep.sum() >= 3 and len(tiles.xg):
-        dense = dense if dense is not None else node_grid(dtm, finest, n=n)
-        kept = node_lattice(model.x[keep], model.y[keep], model.z[keep], finest)
-        rebuilt = line_rebuild_at(kept.tile_nodes(tiles.xg, tiles.yg)).reshape(-1, n, n)
-        err = (rebuilt - dense.tile_nodes(tiles.xg, tiles.yg))[_owned_nodes(tiles.xg, tiles.yg, finest, n)]
+        if line_error is None:
+            dense = dense if dense is not None else node_grid(dtm, finest, n=n)
+            kept = node_lattice(model.x[keep], model.y[keep], model.z[keep], finest)
+            rebuilt = line_rebuild_at(kept.tile_nodes(tiles.xg, tiles.yg)).reshape(-1, n, n)
+            line_error = rebuilt - dense.tile_nodes(tiles.xg, tiles.yg)
+        err = line_error.reshape(-1, n, n)[_owned_nodes(tiles.xg, tiles.yg, finest, n)]
         err = err[np.isfinite(err)]
         if len(err):
             rmse = round(float(np.sqrt(np.mean(err**2))), 4)

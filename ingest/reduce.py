@@ -46,22 +46,44 @@ def paper_keep(tiles: NDArray[np.float64], codes: NDArray[np.uint8], *, n: int) 
     return (corner_mask(n) | category_nodes(codes, n=n)) & ~np.isnan(tiles)
 
 
-def rebuild_error(tiles: NDArray[np.float64], keep: NDArray[np.bool_], *, n: int) -> NDArray[np.float64]:
-    """|rebuilt − dense| at every node with data.
-
-    The surface is rebuilt from the kept nodes by straight lines along each tile's
-    rows and columns (edges first, then the interior); a node no line reaches (a
-    tile cut by a hole) takes the mean of the tile's kept nodes, and a tile with no
-    kept node has error inf, so that it is given one first.
-    """
+def line_error(tiles: NDArray[np.float64], keep: NDArray[np.bool_], *, n: int) -> NDArray[np.float64]:
+    """|rebuilt − dense| at every node (T, n*n), the surface rebuilt from the kept nodes by
+    straight lines along each tile's rows and columns (edges first, then the interior,
+    :func:`tdb.surface.line_rebuild_at`); NaN where a node has no data or no line reaches it."""
     z = np.where(keep, tiles, np.nan)
-    rebuilt = line_rebuild_at(z.reshape(-1, n, n))
+    return np.abs(line_rebuild_at(z.reshape(-1, n, n)) - tiles)
+
+
+def rebuild_error(
+    tiles: NDArray[np.float64],
+    keep: NDArray[np.bool_],
+    *,
+    n: int,
+    line: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
+    """|rebuilt − dense| at every node with data (0 without).
+
+    The surface is rebuilt from the kept nodes by straight lines (:func:`line_error`, or its
+    ``line`` where the caller has it); a node no line reaches (a tile cut by a hole) takes the
+    mean of the tile's kept nodes, and a tile with no kept node has error inf, so that it is
+    given one first.
+    """
+    line = line_error(tiles, keep, n=n) if line is None else line
+    z = np.where(keep, tiles, np.nan)
     known = ~np.isnan(z)
     kept = known.sum(axis=1, keepdims=True)
     mean = np.where(kept > 0, np.where(known, z, 0.0).sum(axis=1, keepdims=True) / np.maximum(kept, 1), np.nan)
-    rebuilt = np.where(np.isnan(rebuilt), mean, rebuilt)
-    err = np.abs(rebuilt - tiles)
-    return np.where(np.isnan(tiles), 0.0, np.where(np.isnan(rebuilt), np.inf, err))
+    fallback = np.where(np.isnan(mean), np.inf, np.abs(mean - tiles))
+    return np.where(np.isnan(tiles), 0.0, np.where(np.isnan(line), fallback, line))
+
+
+@dataclass(frozen=True)
+class Refined:
+    """What :func:`refine` keeps (T, n*n), and, where asked, the line rebuild's error at every
+    node once it is done (:func:`line_error`: NaN without data or where no line reaches)."""
+
+    keep: NDArray[np.bool_]
+    line_error: NDArray[np.float64] | None = None
 
 
 def refine(  # noqa: PLR0913 (a numeric kernel: the tiles' four arrays and its budget)
@@ -74,7 +96,8 @@ def refine(  # noqa: PLR0913 (a numeric kernel: the tiles' four arrays and its b
     budget: int,
     relief: float,
     tolerance: float = TOLERANCE,
-) -> NDArray[np.bool_]:
+    measure: bool = False,
+) -> Refined:
     """(T, n*n) kept nodes: corners, the feature nodes that stand out, then the worst-rebuilt node
     of each tile, band by band (:data:`SCHEDULE`), while the budget lasts.
 
@@ -87,10 +110,15 @@ def refine(  # noqa: PLR0913 (a numeric kernel: the tiles' four arrays and its b
     relief : m; a feature node is kept first where the corners miss it by more (the flat
         threshold: less is not a form).
     tolerance : m; nodes rebuilt within it are not added.
+    measure : whether to return the line rebuild's error at every node as well (what the
+        reduction's figures read), kept up to date as the errors that choose the nodes are.
     """
     valid = ~np.isnan(tiles)
     keep = np.broadcast_to(corner_mask(n), tiles.shape) & valid
-    err = rebuild_error(tiles, keep, n=n)
+    first = line_error(tiles, keep, n=n)
+    err = rebuild_error(tiles, keep, n=n, line=first)
+    line = first if measure else None
+    del first
     nb = _neighbours(ti, tj)
     # The category's feature nodes first, where the corners alone miss their relief (err is 0
     # without data). Where they would spend the whole budget (a patchy survey, whose tile corners
@@ -106,7 +134,10 @@ def refine(  # noqa: PLR0913 (a numeric kernel: the tiles' four arrays and its b
         nonlocal budget
         added, rows = _add(keep, t, node, e, budget, nb, n)
         budget -= added
-        err[rows] = rebuild_error(tiles[rows], keep[rows], n=n)
+        touched = line_error(tiles[rows], keep[rows], n=n)
+        err[rows] = rebuild_error(tiles[rows], keep[rows], n=n, line=touched)
+        if line is not None:
+            line[rows] = touched
         tile_worst[rows] = err[rows].max(axis=1, initial=0.0)
 
     def keep_features(floor: float) -> None:
@@ -125,7 +156,7 @@ def refine(  # noqa: PLR0913 (a numeric kernel: the tiles' four arrays and its b
                 break
             worst = err[t].argmax(axis=1)
             keep_nodes(t, worst, err[t, worst])
-    return keep
+    return Refined(keep, line)
 
 
 def _neighbours(ti: NDArray[np.int64], tj: NDArray[np.int64]) -> NDArray[np.intp]:

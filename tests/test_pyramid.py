@@ -92,7 +92,7 @@ def test_refine_reaches_the_tolerance_when_the_budget_allows():
 
     tiles, ti, tj = _tiles(lambda x, y: 0.8 * np.sin(x / 1.3) * np.cos(y / 1.7))
     codes = np.ones(len(tiles), np.uint8)
-    keep = refine(tiles, codes, ti, tj, n=5, budget=10_000, relief=0.1)
+    keep = refine(tiles, codes, ti, tj, n=5, budget=10_000, relief=0.1).keep
     assert rebuild_error(tiles, keep, n=5).max() <= TOLERANCE
     assert not keep.all()  # it stopped once within the tolerance
 
@@ -109,12 +109,12 @@ def test_refine_spends_no_more_than_its_budget_largest_errors_first():
     codes = np.ones(len(tiles), np.uint8)
     corners = np.broadcast_to(corner_mask(5), tiles.shape)
     for budget in (0, 1, 3):
-        keep = refine(tiles, codes, ti, tj, n=5, budget=budget, relief=0.1)
+        keep = refine(tiles, codes, ti, tj, n=5, budget=budget, relief=0.1).keep
         assert (keep & ~corners).sum() <= 2 * budget  # an edge node is kept by both its tiles
         assert (keep & corners).sum() == corners.sum()
     pit = np.flatnonzero((ti == 2) & (tj == 2))[0]  # the tile holding (5, 5)
     before = rebuild_error(tiles, corners, n=5)[pit].max()
-    after = rebuild_error(tiles, refine(tiles, codes, ti, tj, n=5, budget=1, relief=0.1), n=5)[pit].max()
+    after = rebuild_error(tiles, refine(tiles, codes, ti, tj, n=5, budget=1, relief=0.1).keep, n=5)[pit].max()
     assert after < before / 2
 
 
@@ -123,7 +123,7 @@ def test_a_kept_edge_node_is_kept_by_both_tiles_sharing_it():
 
     # A step along x = 2 (the edge between tiles 0 and 1): only edge nodes can rebuild it.
     tiles, ti, tj = _tiles(lambda x, y: np.where(np.abs(x - 2.0) < 0.1, 1.0, 0.0) * (y > 0.1) * (y < 1.9), count=2)
-    keep = refine(tiles, np.ones(len(tiles), np.uint8), ti, tj, n=5, budget=50, relief=0.1).reshape(-1, 5, 5)
+    keep = refine(tiles, np.ones(len(tiles), np.uint8), ti, tj, n=5, budget=50, relief=0.1).keep.reshape(-1, 5, 5)
     west = np.flatnonzero((ti == 0) & (tj == 0))[0]
     east = np.flatnonzero((ti == 1) & (tj == 0))[0]
     assert keep[west, 1:4, 4].any()
@@ -147,7 +147,7 @@ def test_a_budget_the_feature_nodes_would_spend_goes_to_the_worst_errors_first()
     assert standing_out.sum() > 3
     pit = np.flatnonzero((ti == 2) & (tj == 2))[0]
     before = rebuild_error(tiles, corners, n=5)[pit].max()
-    keep = refine(tiles, codes, ti, tj, n=5, budget=3, relief=0.1)
+    keep = refine(tiles, codes, ti, tj, n=5, budget=3, relief=0.1).keep
     assert rebuild_error(tiles, keep, n=5)[pit].max() < before / 2
 
 
@@ -205,3 +205,41 @@ def test_the_reduction_error_counts_every_post_once(seed):
     err = np.array(list(tally.values()))
     assert stats.rmse_m == pytest.approx(round(float(np.sqrt(np.mean(err**2))), 4), abs=1e-4)
     assert stats.max_error_m == pytest.approx(round(float(np.abs(err).max()), 4), abs=1e-4)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_the_refinements_own_errors_are_the_kept_lattices(seed):
+    """The reduction's figures read from the errors the refinement keeps up to date are those of
+    the surface rebuilt afresh from the kept points' lattice, on a model with holes, a ragged
+    edge and a budget that runs out (so that shared edge nodes matter)."""
+    from ingest.categorise import categorise
+    from ingest.pyramid import reduction_stats
+    from ingest.reduce import budget_for, refine
+    from ingest.tiles import node_grid
+    from tdb.surface import line_rebuild_at
+    from tdb.tiles import SUBGRID, node_lattice
+
+    rng = np.random.default_rng(seed)
+    rows, cols = 121, 109
+    yy, xx = np.mgrid[0:rows, 0:cols] * 0.5
+    data = np.sin(xx / 2.0) + 0.8 * np.cos(yy / 1.5) + rng.normal(0, 0.08, (rows, cols))
+    data[rng.random((rows, cols)) < 0.03] = np.nan
+    data[:, : rng.integers(1, 9)] = np.nan
+    data[40:55, 30:47] = np.nan  # a hole the lines cannot cross
+    dtm = Raster(data, 999.75, 1000.25 + 0.5 * rows, 0.5)
+    measured = build(dtm, flat_threshold=0.1).stats
+    model = build(dtm, flat_threshold=0.1, measure=False)
+    assert measured is not None and measured.rmse_m is not None
+    assert measured == reduction_stats(dtm, model)
+    # node by node, as build refines the finest level
+    grid = node_grid(dtm, 2)
+    tiles, ti, tj = grid.tiles(SUBGRID)
+    some = ~np.isnan(tiles).all(axis=1)
+    tiles, ti, tj = tiles[some], ti[some], tj[some]
+    codes = categorise(tiles, flat_threshold=0.1, n=SUBGRID)
+    own = refine(tiles, codes, ti, tj, n=SUBGRID, budget=budget_for(grid, n=SUBGRID), relief=0.1, measure=True)
+    keep = (model.n & level_bit(2)) > 0
+    kept = node_lattice(model.x[keep], model.y[keep], model.z[keep], 2)
+    afresh = np.abs(line_rebuild_at(kept.tile_nodes(ti * 2, tj * 2)) - tiles)
+    assert own.line_error is not None and np.isnan(afresh).any()
+    np.testing.assert_allclose(own.line_error, afresh, rtol=0, atol=1e-12)
