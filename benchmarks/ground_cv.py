@@ -87,7 +87,7 @@ def samples() -> list[tuple[str, str]]:
 
 
 @functools.cache
-def _isprs_sample(s: str) -> PointCloud:
+def isprs_sample(s: str) -> PointCloud:
     """One ISPRS sample, read once per process."""
     return read(DATA / "isprs" / f"samp{s}-utm.laz")
 
@@ -96,7 +96,7 @@ def isprs_scores(params: AutoParams) -> dict[str, float]:
     """Total error (%) of the default filter with ``params`` on each ISPRS sample."""
     out = {}
     for s in ISPRS_SITES:
-        cloud = _isprs_sample(s)
+        cloud = isprs_sample(s)
         out[f"samp{s}"] = accuracy(cloud.classification == 2, auto_ground(cloud.xyz, params=params)).total
     return out
 

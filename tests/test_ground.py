@@ -296,3 +296,20 @@ def test_a_part_filtered_in_its_box_labels_its_square_as_the_whole_survey_does()
     square = (p[:, 0] >= sx) & (p[:, 0] < sx + side) & (p[:, 1] >= sy) & (p[:, 1] < sy + side)
     assert square.sum() > 40_000
     assert np.array_equal(whole[part][square], piece[square])
+
+
+def test_the_paper_filters_take_their_settings():
+    """``paper_ground`` with the papers' settings is what ``classify_ground`` gives, and a setting
+    reaches the filter: a net that counts points 3 m off as ground takes a low roof."""
+    from ingest.ground import ContourParams, SohnParams, paper_ground
+
+    scene = make_scene(seed=2, size=100)
+    cloud = sample(scene, density=2.0, seed=2)
+    for method in ("contour", "sohn"):
+        np.testing.assert_array_equal(paper_ground(cloud.xyz, method), classify_ground(cloud.xyz, method=method))
+    near = paper_ground(cloud.xyz, "contour", contour=ContourParams(ground_distance=0.4))
+    far = paper_ground(cloud.xyz, "contour", contour=ContourParams(ground_distance=3.0))
+    assert far.sum() > near.sum() and (far | near).sum() == far.sum()
+    assert paper_ground(cloud.xyz, "sohn", sohn=SohnParams(delta_h=1.0)).any()
+    with pytest.raises(InputError, match="papers'"):
+        paper_ground(cloud.xyz, "auto")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable
 
 import numpy as np
@@ -14,12 +15,21 @@ from ingest.ground.sohn import SohnParams, sohn_dowman
 from ingest.ground.tiling import available_cores, by_tiles
 from tdb.classes import NOISE, excluded
 from tdb.cloud import PointCloud, check_spread, from_arrays
+from tdb.errors import InputError
 from tdb.options import GroundMethod, parse
 from tdb.progress import Progress, or_silent
 
 STEP = "ground filter"
 
-__all__ = ["AutoParams", "ContourParams", "SohnParams", "classify_ground", "deep_pits", "low_outliers"]
+__all__ = [
+    "AutoParams",
+    "ContourParams",
+    "SohnParams",
+    "classify_ground",
+    "deep_pits",
+    "low_outliers",
+    "paper_ground",
+]
 
 
 def classify_ground(
@@ -83,7 +93,31 @@ def _ground(
         )
         report(STEP, 1, 1)
         return ground
-    # The papers have no outlier step; both use the default filter's (see docs/ground.md):
+    return paper_ground(xyz, m, density=density, progress=report)
+
+
+def paper_ground(
+    xyz: NDArray[np.float64],
+    method: str | GroundMethod,
+    *,
+    sohn: SohnParams | None = None,
+    contour: ContourParams | None = None,
+    density: float | None = None,
+    progress: Progress | None = None,
+) -> NDArray[np.bool_]:
+    """Ground mask of (N, 3) coordinates in metres by one of the papers' filters (``sohn`` or
+    ``contour``), with its settings (the paper's by default), after the default filter's low
+    outlier and deep pit tests, which the papers have not.
+
+    Raises
+    ------
+    InputError
+        If ``method`` is not one of the papers' filters.
+    """
+    m = parse(GroundMethod, method)
+    if m is GroundMethod.AUTO:
+        raise InputError("the default filter is not one of the papers' (sohn, contour)")
+    report = or_silent(progress)
     # Sohn's downward step would make a 25 m deep multipath cluster a TIN vertex (samp41).
     out = low_outliers(xyz, density=density) | deep_pits(xyz)
     ground = np.zeros(len(xyz), bool)
@@ -91,11 +125,11 @@ def _ground(
     if m is GroundMethod.SOHN:
         ground[keep] = by_tiles(
             xyz[keep],
-            sohn_dowman,
+            functools.partial(sohn_dowman, params=sohn or SohnParams()),
             workers=available_cores(),
             progress=lambda done, total: report(STEP, done, total),
         )
     else:
-        ground[keep] = active_contour(xyz[keep])
+        ground[keep] = active_contour(xyz[keep], params=contour or ContourParams())
         report(STEP, 1, 1)
     return ground
