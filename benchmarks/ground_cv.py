@@ -147,6 +147,30 @@ def cross_validate(table: list[dict[str, float]], pairs: list[tuple[str, str]]) 
     }
 
 
+def cv_rows(
+    table: list[dict[str, float]],
+    settings: list[dict[str, Any]],
+    pairs: list[tuple[str, str]],
+    *,
+    default: int,
+    tuned: int,
+    held: dict[str, int],
+) -> list[CvRow]:
+    """Per sample, the scores of the default, the tuned setting and the one chosen without its
+    site (:func:`cross_validate`'s choices, indices into ``settings`` and ``table``)."""
+    return [
+        CvRow(
+            sample=sample,
+            site=site,
+            default=table[default][sample],
+            tuned=table[tuned][sample],
+            held_out=table[held[site]][sample],
+            held_out_setting=settings[held[site]],
+        )
+        for sample, site in pairs
+    ]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--workers", type=int, default=2)
@@ -167,17 +191,7 @@ def main() -> None:
     pairs = samples()
     tuned, held = cross_validate(table, pairs)
     default = settings.index({k: getattr(AutoParams(), k) for k in GRID})
-    rows = [
-        CvRow(
-            sample=sample,
-            site=site,
-            default=table[default][sample],
-            tuned=table[tuned][sample],
-            held_out=table[held[site]][sample],
-            held_out_setting=settings[held[site]],
-        )
-        for sample, site in pairs
-    ]
+    rows = cv_rows(table, settings, pairs, default=default, tuned=tuned, held=held)
     for r in rows:
         print(
             f"{r.sample:42s} {r.site:12s} default {r.default:6.2f}  tuned {r.tuned:6.2f}"

@@ -28,6 +28,7 @@ from benchmarks.common import RESULTS, save
 from benchmarks.ground_cv import (
     ISPRS_SITES,
     cross_validate,
+    cv_rows,
     family,
     isprs_scores,
     samples,
@@ -104,17 +105,8 @@ def limits(workers: int) -> dict[str, Any]:
     pairs = [(f"samp{s}", f"ISPRS {site}") for s, site in ISPRS_SITES.items()]
     tuned, held = cross_validate(table, pairs)
     default = 0  # every grid lists the default first
-    rows = [
-        {
-            "sample": sample,
-            "site": site,
-            "default": table[default][sample],
-            "tuned": table[tuned][sample],
-            "held_out": table[held[site]][sample],
-            "held_out_setting": settings[held[site]],
-        }
-        for sample, site in pairs
-    ]
+    chosen = cv_rows(table, settings, pairs, default=default, tuned=tuned, held=held)
+    rows = [dataclasses.asdict(r) for r in chosen]
     return {
         "grid": {k: list(v) for k, v in LIMITS.items()},
         "tuned_setting": settings[tuned],

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.common import save
-from benchmarks.ground_cv import ISPRS_SITES, CvRow, cross_validate, isprs_sample
+from benchmarks.ground_cv import ISPRS_SITES, cross_validate, cv_rows, isprs_sample
 from ingest.ground import ContourParams, SohnParams, paper_ground
 from ingest.ground.evaluate import accuracy
 
@@ -63,17 +63,7 @@ def run(method: str, workers: int) -> dict[str, Any]:
     pairs = [(f"samp{s}", f"ISPRS {site}") for s, site in ISPRS_SITES.items()]
     tuned, held = cross_validate(table, pairs)
     shipped = 0  # every grid lists the shipped value first
-    rows = [
-        CvRow(
-            sample=sample,
-            site=site,
-            default=table[shipped][sample],
-            tuned=table[tuned][sample],
-            held_out=table[held[site]][sample],
-            held_out_setting=settings[held[site]],
-        )
-        for sample, site in pairs
-    ]
+    rows = cv_rows(table, settings, pairs, default=shipped, tuned=tuned, held=held)
     summary = {k: float(np.mean([getattr(r, k) for r in rows])) for k in ("default", "tuned", "held_out")}
     return {
         "grid": {k: list(v) for k, v in grid.items()},
