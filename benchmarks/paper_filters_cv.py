@@ -14,6 +14,8 @@ Each grid lists the shipped value first. Both filters run after the default filt
 and deep pit tests (:func:`ingest.ground.paper_ground`), as ``tdb ground`` runs them.
 
     python -m benchmarks.paper_filters_cv [--workers 2] [--methods sohn,contour]
+
+Each filter's results go to their own file (``paper_filters_cv_sohn.json``, ``…_contour.json``).
 """
 
 from __future__ import annotations
@@ -35,8 +37,8 @@ GRIDS: dict[str, dict[str, tuple[Any, ...]]] = {
     "sohn": {"delta_h": (1.0, 0.5, 1.5), "beta": (45.0, 30.0, 60.0), "below_tolerance": (0.1, 0.0, 0.2)},
     "contour": {
         "attraction_range": (1.5, 1.0, 2.5),
-        "gravity": (0.5, 0.25, 1.0),
-        "ground_distance": (0.4, 0.25, 0.6),
+        "gravity": (0.5, 0.1, 0.25, 1.0),
+        "ground_distance": (0.4, 0.25, 0.6, 0.8, 1.0),
     },
 }
 TARGETS = {"sohn": 9.0, "contour": 18.0}  # % mean total error held out (issue 26)
@@ -80,11 +82,10 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--methods", default=",".join(GRIDS))
     args = parser.parse_args()
-    doc = {}
     for method in (m.strip() for m in args.methods.split(",")):
-        doc[method] = run(method, args.workers)
-        print(method, doc[method]["tuned_setting"], doc[method]["summary"], flush=True)
-    print(save("paper_filters_cv", doc))
+        part = run(method, args.workers)
+        print(method, part["tuned_setting"], part["summary"], flush=True)
+        print(save(f"paper_filters_cv_{method}", part))
 
 
 if __name__ == "__main__":
