@@ -32,6 +32,10 @@ from tdb.fill import fill_nearest
 from tdb.objects import Tree
 from tdb.outlines import outlines
 
+# The crown net's pull in its first phase: its own, as the tree settings were chosen with it,
+# not the ground filter's gravitation, which is chosen on the ground.
+CROWN_NET_GRAVITY = 0.5
+
 
 @dataclass(frozen=True)
 class TreeParams:
@@ -127,7 +131,7 @@ def crown_surface(
     kept only as far up as the closing reaches.
     """
     start = np.asarray(fill_nearest(height), np.float64)
-    contour = ContourParams(max_iterations=params.iterations)
+    contour = ContourParams(max_iterations=params.iterations, gravity=CROWN_NET_GRAVITY)
     relaxed = -relax_on(-height, -start, mask, cell, params.penetration, contour)
     if params.hole_spacings is None:
         return relaxed
