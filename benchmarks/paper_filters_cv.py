@@ -36,9 +36,9 @@ from ingest.ground.evaluate import accuracy
 GRIDS: dict[str, dict[str, tuple[Any, ...]]] = {
     "sohn": {"delta_h": (1.0, 0.5, 1.5), "beta": (45.0, 30.0, 60.0), "below_tolerance": (0.1, 0.0, 0.2)},
     "contour": {
-        "attraction_range": (1.5, 1.0, 2.5),
-        "gravity": (0.5, 0.1, 0.25, 1.0),
-        "ground_distance": (0.4, 0.25, 0.6, 0.8, 1.0),
+        "attraction_range": (1.5, 0.75, 1.0, 2.5),
+        "gravity": (0.5, 0.0, 0.1, 0.25, 1.0),
+        "ground_distance": (0.4, 0.25, 0.6, 0.8, 1.0, 1.25),
     },
 }
 TARGETS = {"sohn": 9.0, "contour": 18.0}  # % mean total error held out (issue 26)
