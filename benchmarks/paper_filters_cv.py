@@ -10,7 +10,8 @@ shipped one. The grids hold what the papers leave open or what tdb departs from 
 - Elmqvist gives the forces' shapes but no figures: the attraction's range, the gravitation
   and how near the net a point is ground are tdb's, and gridded.
 
-Each grid lists the shipped value first. Both filters run after the default filter's low outlier
+Each grid lists the shipped value first (a result file keeps the grid it ran with, and its
+*default* column is what was shipped then). Both filters run after the default filter's low outlier
 and deep pit tests (:func:`ingest.ground.paper_ground`), as ``tdb ground`` runs them.
 
     python -m benchmarks.paper_filters_cv [--workers 2] [--methods sohn,contour]
@@ -36,9 +37,9 @@ from ingest.ground.evaluate import accuracy
 GRIDS: dict[str, dict[str, tuple[Any, ...]]] = {
     "sohn": {"delta_h": (1.0, 0.5, 1.5), "beta": (45.0, 30.0, 60.0), "below_tolerance": (0.1, 0.0, 0.2)},
     "contour": {
-        "attraction_range": (1.5, 0.75, 1.0, 2.5),
-        "gravity": (0.5, 0.0, 0.1, 0.25, 1.0),
-        "ground_distance": (0.4, 0.25, 0.6, 0.8, 1.0, 1.25),
+        "attraction_range": (1.0, 0.75, 1.5, 2.5),
+        "gravity": (0.0, 0.1, 0.25, 0.5, 1.0),
+        "ground_distance": (1.25, 0.25, 0.4, 0.6, 0.8, 1.0),
     },
 }
 TARGETS = {"sohn": 9.0, "contour": 18.0}  # % mean total error held out (issue 26)
