@@ -226,6 +226,16 @@ def paper_filters_cv_section(out: list[str]) -> None:
             f"**held out {sm['held_out']:.2f} %** (target ≤ {part['target']:.0f} %).",
             "",
         ]
+        if "paper_held" in part:
+            free = part["free"]
+            held = ", ".join(f"`{k}` {v}" for k, v in part["paper_held"].items())
+            out += [
+                f"The table holds the paper's {held}; the departures from it are chosen. With it freed "
+                f"too, the whole grid reads tuned {free['summary']['tuned']:.2f} %, held out "
+                f"{free['summary']['held_out']:.2f} % (`{free['tuned_setting']}` on all six sites): "
+                "the departure does not earn its place.",
+                "",
+            ]
 
 
 def copc_section(out: list[str]) -> None:

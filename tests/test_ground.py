@@ -313,3 +313,19 @@ def test_the_paper_filters_take_their_settings():
     assert paper_ground(cloud.xyz, "sohn", sohn=SohnParams(delta_h=1.0)).any()
     with pytest.raises(InputError, match="papers'"):
         paper_ground(cloud.xyz, "auto")
+
+
+def test_sohns_buffer_grown_with_the_distance_from_ground_climbs_a_dome():
+    """Over a dome the first facets span far under the ground between them: a buffer of 0.3 m
+    leaves its flanks out, one grown by 0.2 m per metre from the nearest ground vertex takes them,
+    as a 1 m buffer does."""
+    from ingest.ground import SohnParams, paper_ground
+
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(0, 100, (5000, 2))
+    z = 15 - 0.006 * ((xy - 50) ** 2).sum(axis=1) + rng.normal(0, 0.03, len(xy))
+    xyz = np.column_stack([xy, z])
+    fixed = paper_ground(xyz, "sohn", sohn=SohnParams(delta_h=0.3))
+    grown = paper_ground(xyz, "sohn", sohn=SohnParams(delta_h=0.3, buffer_grade=0.2))
+    assert fixed.mean() < 0.97
+    assert grown.mean() > 0.99
