@@ -106,7 +106,7 @@ def paper_ground(
     progress: Progress | None = None,
 ) -> NDArray[np.bool_]:
     """Ground mask of (N, 3) coordinates in metres by one of the papers' filters (``sohn`` or
-    ``contour``), with its settings (the paper's by default), after the default filter's low
+    ``contour``), with its settings (the shipped ones by default), after the default filter's low
     outlier and deep pit tests, which the papers have not.
 
     Raises
