@@ -236,6 +236,13 @@ def paper_filters_cv_section(out: list[str]) -> None:
                 "the departure does not earn its place.",
                 "",
             ]
+            if "nested_held_out" in part:
+                out += [
+                    "That rule is itself a choice made on the data. Applied within each fold (the other five "
+                    "sites decide by their own leave-one-site-out whether to free it, then choose), it reads "
+                    f"**{part['nested_held_out']:.2f} %** held out.",
+                    "",
+                ]
 
 
 def copc_section(out: list[str]) -> None:
