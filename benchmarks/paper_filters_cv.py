@@ -114,21 +114,20 @@ def _nested(table: list[dict[str, float]], pairs: list[tuple[str, str]], paper: 
     """Mean total error (%) held out when the rule itself (free the paper's values only where that
     lowers the held-out figure) is applied within each fold: for each site, the other five decide
     by their own leave-one-site-out between the whole grid and its paper part, and choose in it."""
-    means = [site_means(t, pairs) for t in table]
-    sites = list(means[0])
     everything = list(range(len(table)))
 
-    def best(use: list[int], on: list[str]) -> int:
-        return min(use, key=lambda i: float(np.mean([means[i][s] for s in on])))
-
-    def held_out(use: list[int], on: list[str]) -> float:
-        return float(np.mean([means[best(use, [x for x in on if x != s])][s] for s in on]))
+    def fold(use: list[int], on: list[tuple[str, str]]) -> tuple[int, float]:
+        """The setting chosen on the sites of ``on``, and their own held-out figure."""
+        sub = [table[i] for i in use]
+        tuned, held = cross_validate(sub, on)
+        sites = {site for _, site in on}
+        return use[tuned], float(np.mean([site_means(sub[held[s]], on)[s] for s in sites]))
 
     pick = {}
-    for site in sites:
-        others = [x for x in sites if x != site]
-        rule = min((paper, everything), key=lambda use: held_out(use, others))
-        pick[site] = best(rule, others)
+    for site in {s for _, s in pairs}:
+        others = [(sample, s) for sample, s in pairs if s != site]
+        rule = min((paper, everything), key=lambda use: fold(use, others)[1])
+        pick[site] = fold(rule, others)[0]
     return float(np.mean([table[pick[site]][sample] for sample, site in pairs]))
 
 

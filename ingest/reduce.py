@@ -115,10 +115,10 @@ def refine(  # noqa: PLR0913 (a numeric kernel: the tiles' four arrays and its b
     """
     valid = ~np.isnan(tiles)
     keep = np.broadcast_to(corner_mask(n), tiles.shape) & valid
-    first = line_error(tiles, keep, n=n)
-    err = rebuild_error(tiles, keep, n=n, line=first)
-    line = first if measure else None
-    del first
+    line: NDArray[np.float64] | None = line_error(tiles, keep, n=n)
+    err = rebuild_error(tiles, keep, n=n, line=line)
+    if not measure:
+        line = None
     nb = _neighbours(ti, tj)
     # The category's feature nodes first, where the corners alone miss their relief (err is 0
     # without data). Where they would spend the whole budget (a patchy survey, whose tile corners

@@ -184,8 +184,10 @@ def auto_ground(
         current = np.where(found, idx, current)
         passes = p.stage_passes
     if GroundStage.REJOIN not in p.skip:
-        keep, h, is_ground = _rejoined(grid, xyz, keep, outlier, h, is_ground, surface, slope_map, threshold, p)
-        if len(keep) > len(pts):
+        back, h_back = _rejoined(grid, xyz[outlier], surface, slope_map, threshold, p)
+        if len(back):
+            keep = np.r_[keep, np.flatnonzero(outlier)[back]]
+            h, is_ground = np.r_[h, h_back], np.r_[is_ground, np.ones(len(back), bool)]
             pts = xyz[keep]
             cells = CellSort.of(grid, pts)
     kept_returns = None if returns is None else (returns[0][keep], returns[1][keep])
@@ -193,29 +195,24 @@ def auto_ground(
     return ground
 
 
-def _rejoined(  # noqa: PLR0913 (the settled passes' state)
+def _rejoined(
     grid: Grid,
-    xyz: NDArray[np.float64],
-    keep: NDArray[np.intp],
-    outlier: NDArray[np.bool_],
-    h: NDArray[np.float64],
-    is_ground: NDArray[np.bool_],
+    outliers: NDArray[np.float64],
     surface: NDArray[np.floating[Any]],
     slope: NDArray[np.floating[Any]],
     threshold: float,
     p: AutoParams,
-) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.bool_]]:
-    """``keep``, ``h`` and ``is_ground`` with the low outliers that lie on the settled ``surface``
-    appended, as ground.
+) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    """Which of the low ``outliers`` (their coordinates) lie on the settled ``surface``, and their
+    heights above it.
 
     An outlier by its neighbourhood that passes the test every point passes is ground: under a
     canopy few pulses get through, and a lone ground return's neighbourhood is crowns. It joins
     before the last stages, so that a one-point pit still leaves."""
-    back = np.flatnonzero(outlier)
-    at = grid.corner_sampler(xyz[back, :2])
-    h_back = xyz[back, 2] - at(surface)
-    on = _accepted(h_back, at(slope), threshold, p)
-    return np.r_[keep, back[on]], np.r_[h, h_back[on]], np.r_[is_ground, np.ones(np.count_nonzero(on), bool)]
+    at = grid.corner_sampler(outliers[:, :2])
+    h = outliers[:, 2] - at(surface)
+    on = np.flatnonzero(_accepted(h, at(slope), threshold, p))
+    return on, h[on]
 
 
 def _accepted(
