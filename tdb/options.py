@@ -36,6 +36,7 @@ class GroundStage(Option):
     (``docs/ground.md`` says what each finds and why it is there)."""
 
     PITS = "pits"  # deep narrow clusters of low outliers, found by the upside-down opening
+    ROOFS = "roofs"  # ground surfaces a wall's drop above all the ground around: roofs too wide to open
     EARTHWORKS = "earthworks"  # long, narrow, low object groups: dikes, embankment crests
     HILLS = "hills"  # object groups that rise smoothly out of the ground
     WALLS = "walls"  # free-standing walls

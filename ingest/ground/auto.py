@@ -43,6 +43,7 @@ from ingest.ground.hills import HillShape, point_spacing, smooth_hills
 from ingest.ground.morphology import progressive_opening
 from ingest.ground.outliers import ground_spikes, low_outliers, point_density, sunken_groups
 from ingest.ground.refill import LineFill
+from ingest.ground.roofs import RoofShape, raised_roofs
 from tdb.bbox import column_range
 from tdb.errors import InputError
 from tdb.fill import NearestFill, fill_lines, fill_nearest
@@ -74,6 +75,7 @@ class AutoParams:
     earthworks: EarthworkShape = field(default_factory=EarthworkShape)  # long, narrow, low objects are terrain
     walls: WallShape = field(default_factory=WallShape)  # free-standing walls are terrain; rows of cars are not
     hills: HillShape = field(default_factory=HillShape)  # groups that rise smoothly out of the ground are terrain
+    roofs: RoofShape = field(default_factory=RoofShape)  # ground a wall's drop above all around is a roof
     # stages left out, to measure what each earns (benchmarks/ground_stages.py); none by default
     skip: frozenset[GroundStage] = frozenset()
 
@@ -154,16 +156,17 @@ def auto_ground(
     rejoin = ~objects[grid.index(pts[:, :2])] if p.flat_rejoin else np.ones(len(pts), bool)
     # later passes change few cells of the surface: only their runs of holes are filled again
     lines, nearest = LineFill(max_gap=p.max_bridge / p.cell), NearestFill()
-    # Once the passes are done, each stage may hand them more ground, once: steep-sided ridges,
-    # dikes and embankment crests (long, narrow, low groups of object cells), then hills
-    # (groups that rise smoothly out of the ground).
-    stages = [s for s in (GroundStage.EARTHWORKS, GroundStage.HILLS) if s not in p.skip]
+    # Once the passes are done, each stage may change their ground, once: roofs too wide for
+    # the openings leave it; steep-sided ridges, dikes and embankment crests (long, narrow, low
+    # groups of object cells), then hills (groups that rise smoothly out of the ground) join it.
+    stages = [s for s in (GroundStage.ROOFS, GroundStage.EARTHWORKS, GroundStage.HILLS) if s not in p.skip]
+    on_roof = np.zeros(len(pts), bool)
     passes = p.refinements + 1
     while True:
         passes -= 1
         surface, slope_map = ground_surface(grid, pts, current, lines=lines, nearest=nearest)
         h = pts[:, 2] - at_points(surface)
-        is_ground = _accepted(h, at_points(slope_map), threshold, p)
+        is_ground = _accepted(h, at_points(slope_map), threshold, p) & ~on_roof
         # The next surface rests on the lowest ground point per cell: noise and
         # low clutter among the accepted points would otherwise lift it.
         before, current = current, cells.lowest(is_ground & (rejoin | (h <= threshold)))
@@ -174,14 +177,20 @@ def auto_ground(
             continue
         found = np.zeros(grid.shape, bool)
         while stages and not found.any():
-            found = (
-                _earthworks(grid, surface, zmin, idx, current, objects & ~pits, p)
-                if stages.pop(0) is GroundStage.EARTHWORKS
-                else _hills(grid, pts, is_ground, p)
-            )
+            stage = stages.pop(0)
+            if stage is GroundStage.ROOFS:
+                on_roof = _roofs(pts, is_ground, p)
+                found = (current >= 0) & on_roof[np.maximum(current, 0)]
+                current = np.where(found, -1, current)
+            else:
+                found = (
+                    _earthworks(grid, surface, zmin, idx, current, objects & ~pits, p)
+                    if stage is GroundStage.EARTHWORKS
+                    else _hills(grid, pts, is_ground, p)
+                )
+                current = np.where(found, idx, current)
         if not found.any():
             break
-        current = np.where(found, idx, current)
         passes = p.stage_passes
     if GroundStage.REJOIN not in p.skip:
         back, h_back = _rejoined(grid, xyz[outlier], surface, slope_map, threshold, p)
@@ -299,11 +308,21 @@ def _walls(
     return low & (h <= walls[row, col] + p.walls.above_top)
 
 
+def _group_cell(pts: NDArray[np.float64], p: AutoParams) -> float:
+    """Cell size (m) of the grids the hills and roofs are grouped on: about 1.5 point spacings,
+    so that sparse data leaves few cells empty."""
+    return max(p.cell, quantised(p.hills.spacings * point_spacing(pts[:, :2])))
+
+
+def _roofs(pts: NDArray[np.float64], is_ground: NDArray[np.bool_], p: AutoParams) -> NDArray[np.bool_]:
+    """Ground points on roofs too wide for the openings (:func:`ingest.ground.roofs.raised_roofs`)."""
+    return raised_roofs(pts, is_ground, cell=_group_cell(pts, p), shape=p.roofs)
+
+
 def _hills(grid: Grid, pts: NDArray[np.float64], is_ground: NDArray[np.bool_], p: AutoParams) -> NDArray[np.bool_]:
     """Cells of ``grid`` whose lowest point is the lowest of a hill's cell
     (:func:`ingest.ground.hills.smooth_hills`)."""
-    cell = max(p.cell, quantised(p.hills.spacings * point_spacing(pts[:, :2])))
-    found = np.flatnonzero(smooth_hills(pts, is_ground, cell=cell, shape=p.hills))
+    found = np.flatnonzero(smooth_hills(pts, is_ground, cell=_group_cell(pts, p), shape=p.hills))
     out = np.zeros(grid.shape, bool)
     out[grid.index(pts[found, :2])] = True
     return out
