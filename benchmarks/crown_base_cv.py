@@ -20,12 +20,11 @@ from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 from typing import Any
 
-from benchmarks.common import save
+from benchmarks.common import choose, save
 from benchmarks.objects_cv import (
     DENSITIES,
     HOLDOUT,
     SEEDS,
-    choose,
     forest_case,
     found_trees,
     run_tdb,

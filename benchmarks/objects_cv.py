@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from benchmarks.common import DATA, save
+from benchmarks.common import DATA, choose, save
 from benchmarks.objects_score import MIN_CROWN, MIN_HEIGHT, footprint_iou, score_trees
 from ingest.dtm import DEFAULT_RESOLUTION, dense_model
 from ingest.ground import classify_ground
@@ -191,29 +191,6 @@ def vegetation_agreement(path: str) -> dict[str, float] | None:
         "building": float((found.classes[tall] == 6).mean()),
         "points_per_s": len(cloud) / elapsed,
     }
-
-
-def choose(table: dict[str, dict[str, float]], groups: dict[str, str]) -> tuple[str, dict[str, tuple[str, float]]]:
-    """The setting best on all groups, and per group the setting best on the others with its score
-    there. Each group counts once (the mean of its cases' scores): a scene's three densities are
-    one scene, and outweighed the one real forest three to one when each case counted."""
-
-    def mean_over(setting: str, names: list[str]) -> float:
-        per_group: dict[str, list[float]] = {}
-        for n in names:
-            per_group.setdefault(groups[n], []).append(table[setting][n])
-        return float(np.nanmean([np.nanmean(v) for v in per_group.values()]))
-
-    names = list(groups)
-    settings = list(table)
-    tuned = max(settings, key=lambda s: mean_over(s, names))
-    held = {}
-    for g in sorted(set(groups.values())):
-        others = [n for n in names if groups[n] != g]
-        mine = [n for n in names if groups[n] == g]
-        best = max(settings, key=lambda s: mean_over(s, others))
-        held[g] = (best, mean_over(best, mine))
-    return tuned, held
 
 
 _CASES: list[Case] = []  # the cases a forked worker scores

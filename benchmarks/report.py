@@ -11,6 +11,7 @@ from typing import Any
 from benchmarks.common import RESULTS, ROOT
 from benchmarks.report_feature_peers import feature_peers_section
 from benchmarks.report_objects import crown_base_section, objects_section
+from benchmarks.report_roofs import ground_roofs_section
 
 SOHN_SITE = RESULTS / "sohn_speed.json"
 
@@ -880,6 +881,11 @@ def changes_section(out: list[str]) -> None:
             ]
 
 
+def _roofs_section(out: list[str]) -> None:
+    doc = _load("ground_roofs")
+    ground_roofs_section(out, doc, _machine(doc) if doc else "")
+
+
 def main() -> None:
     out = [
         "# Benchmarks",
@@ -894,6 +900,7 @@ def main() -> None:
         ground_real_section,
         ground_cv_section,
         ground_stages_section,
+        _roofs_section,
         paper_filters_cv_section,
         categorise_section,
         reduction_section,

@@ -11,7 +11,9 @@
    above that surface against a threshold that grows with the local slope; the
    ground so found makes the next surface and the test is repeated, which lets
    ground creep up breaks of slope that the square windows cut off.
-4. Once settled, long, narrow, low groups of object cells (earthworks,
+4. Once settled, ground surfaces a storey over all the ground beside them, behind walls, leave
+   it (roofs wider than the largest window, :mod:`ingest.ground.roofs`); then long, narrow, low
+   groups of object cells (earthworks,
    :mod:`ingest.ground.earthworks`; grouped as the passes left them and as the
    opening found them) join the ground and the passes go on; once
    settled again, groups that rise smoothly out of the ground (hills,

@@ -25,7 +25,7 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ingest.ground.grids import CellSort, Grid
+from ingest.ground.grids import Grid
 
 # The eight neighbours of a cell (row, column offsets); the first four join surfaces.
 NEIGHBOURS = ((0, 1), (1, 0), (1, 1), (1, -1), (0, -1), (-1, 0), (-1, -1), (-1, 1))
@@ -58,18 +58,21 @@ def raised_roofs(
     shape : what makes a surface a roof.
     """
     grid = Grid.covering(xyz[:, :2], cell)
-    cells = CellSort.of(grid, xyz)
-    lowest, anything = cells.lowest(ground), cells.lowest()
-    z = np.where(lowest >= 0, xyz[np.maximum(lowest, 0), 2], np.nan)
-    under = np.where((anything >= 0) & (lowest < 0), xyz[np.maximum(anything, 0), 2], np.nan)
+    row, col = grid.index(xyz[:, :2])
+    flat = row * grid.shape[1] + col
+    z, lowest = (np.full(grid.shape, np.inf) for _ in range(2))
+    np.minimum.at(z.ravel(), flat[ground], xyz[ground, 2])
+    np.minimum.at(lowest.ravel(), flat, xyz[:, 2])
+    empty = np.isinf(lowest)
+    under = np.where(np.isinf(z) & ~empty, lowest, np.nan)  # the lowest point of a cell without ground
+    z[np.isinf(z)] = np.nan
     # A gap in the data may hide the ground at a roof's foot, or terrain going on: it counts
     # against a roof. Random sampling leaves empty cells, but hardly ever 3 x 3 of them.
-    void = ndimage.binary_opening(anything < 0, structure=np.ones((3, 3), bool))
+    void = ndimage.binary_opening(empty, structure=np.ones((3, 3), bool))
     roofs = np.zeros(grid.shape, bool)
     # A roof of several levels shows its highest level first; the lower ones once it is gone.
     while (found := _roof_cells(np.where(roofs, np.nan, z), under, void, shape)).any():
         roofs |= found
-    row, col = grid.index(xyz[:, :2])
     return ground & roofs[row, col]
 
 
@@ -81,14 +84,19 @@ def _roof_cells(
     data."""
     label, count = _surfaces(z, shape.step)
     judged, down, up, beyond = (np.zeros(count) for _ in range(4))
-    r, c = np.nonzero(label >= 0)
+    # Only a surface's outline has neighbours of another kind, and a surface at the grid's edge
+    # (the terrain, mostly) is never a roof.
+    edge = np.unique(np.r_[label[0], label[-1], label[:, 0], label[:, -1]])
+    outline = (ndimage.maximum_filter(label, size=3) != label) | (ndimage.minimum_filter(label, size=3) != label)
+    r, c = np.nonzero(outline & (label >= 0) & ~np.isin(label, edge))
     own = label[r, c]
     for offset in NEIGHBOURS:
         seen, dropped, over, outside = _beside(z, under, void, label, r, c, offset, shape.step)
-        np.add.at(beyond, own[outside], 1)
-        np.add.at(judged, own[seen], 1)
-        np.add.at(down, own[dropped], 1)
-        np.add.at(up, own[over], 1)
+        beyond += np.bincount(own[outside], minlength=count)
+        judged += np.bincount(own[seen], minlength=count)
+        down += np.bincount(own[dropped], minlength=count)
+        up += np.bincount(own[over], minlength=count)
+    beyond[edge[edge >= 0]] = 1
     # A roof drops to the ground beside it nearly everywhere the ground shows, and more of its
     # outline drops than rises: a yard among buildings, or a street between them, lies under
     # them. A higher part of the same building may rise over a lower roof on one side.
