@@ -38,7 +38,7 @@ def ground_roofs_section(out: list[str], doc: dict[str, Any] | None, machine: st
     means = [_cell({k: float(np.mean([r[k] for r in rows if r["method"] == m])) for k in _KEYS}) for m in methods]
     out.append("| **mean** | | | " + " | ".join(means) + " |")
     yard = min(r["yard_kept_pct"] for r in rows if r["method"] == methods[0])
-    out += ["", f"The courtyard's ground kept by `{methods[0]}`: at least {yard:.1f} % in every scene.", ""]
+    out += ["", f"The courtyard's ground kept by `{methods[0]}` where it keeps least: {yard:.1f} %.", ""]
     grid = doc.get("grid")
     if grid:
         held = grid["held_out"]
