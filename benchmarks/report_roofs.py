@@ -39,6 +39,16 @@ def ground_roofs_section(out: list[str], doc: dict[str, Any] | None, machine: st
     out.append("| **mean** | | | " + " | ".join(means) + " |")
     yard = min(r["yard_kept_pct"] for r in rows if r["method"] == methods[0])
     out += ["", f"The courtyard's ground kept by `{methods[0]}` where it keeps least: {yard:.1f} %.", ""]
+    site = doc.get("site")
+    if site:
+        out += [
+            f"On the ISPRS site cloud CSite2 (unlabelled) the stage takes {site['left_ground']:,} points "
+            f"off the ground, most of them a 60 × 60 m roof 12 m over the street; {site['joined']:,} join "
+            "it by the pass the stage adds:",
+            "",
+            "![CSite2's ground without the roofs stage and with it](images/roofs-csite2.png)",
+            "",
+        ]
     grid = doc.get("grid")
     if grid:
         held = grid["held_out"]

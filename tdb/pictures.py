@@ -436,3 +436,31 @@ def agreement_map(  # noqa: PLR0913 (the tiles, where they differ, and the frame
     )
     ax.set_title(title, fontsize=10)
     _save(fig, path, dpi=100, bbox_inches="tight")
+
+
+def ground_change_map(
+    path: str | os.PathLike[str],
+    xy: NDArray[np.float64],
+    before: NDArray[np.bool_],
+    after: NDArray[np.bool_],
+    *,
+    crs: Any,
+    title: str,
+    names: tuple[str, str] = ("before", "after"),
+) -> None:
+    """Points that two ground labellings ``before`` and ``after`` agree are ground (grey), and
+    those only one of them calls ground (red: only ``before``; blue: only ``after``)."""
+    bounds = _grown((*xy.min(axis=0), *xy.max(axis=0)))
+    fig = _figure(*_map_size(bounds))
+    ax = fig.add_subplot()
+    kinds = [
+        (before & after, (0.75, 0.75, 0.75), 0.4, f"ground in both ({int((before & after).sum()):,})"),
+        (before & ~after, (0.85, 0.1, 0.1), 1.5, f"ground {names[0]} only ({int((before & ~after).sum()):,})"),
+        (after & ~before, (0.1, 0.3, 0.8), 1.5, f"ground {names[1]} only ({int((after & ~before).sum()):,})"),
+    ]
+    for mask, colour, size, _label in kinds:
+        ax.scatter(xy[mask, 0], xy[mask, 1], s=size, color=colour, lw=0, rasterized=True)
+    _map_frame(ax, crs, bounds)
+    _legend(ax, [(label, colour, "patch") for _m, colour, _s, label in kinds], title="ground points")
+    ax.set_title(title, fontsize=10)
+    _save(fig, path, dpi=100, bbox_inches="tight")

@@ -76,3 +76,21 @@ def test_a_roof_needs_a_drop_of_a_storey_nearly_all_round():
     ramped = xyz.copy()
     ramped[ramp, 2] += 8 * (224 - y[ramp]) / 64
     assert not raised_roofs(ramped, auto_ground(ramped, params=WITHOUT), cell=1.5)[hall].any()
+
+
+def test_the_map_shows_the_roof_that_left_the_ground(tmp_path):
+    import matplotlib.image
+
+    from tdb.pictures import ground_change_map
+
+    xyz, hall = _hall(2, density=0.5, width=70, length=60, height=6)
+    before, after = auto_ground(xyz, params=WITHOUT), auto_ground(xyz)
+    assert (before & ~after)[hall].mean() > 0.5
+    ground_change_map(tmp_path / "m.png", xyz[:, :2], before, after, crs=None, title="hall")
+    rgb = matplotlib.image.imread(tmp_path / "m.png")[..., :3]
+    red = (rgb[..., 0] > 0.7) & (rgb[..., 1] < 0.25) & (rgb[..., 2] < 0.25)
+    ground_change_map(tmp_path / "n.png", xyz[:, :2], after, after, crs=None, title="same")
+    rgb = matplotlib.image.imread(tmp_path / "n.png")[..., :3]
+    legend_only = (rgb[..., 0] > 0.7) & (rgb[..., 1] < 0.25) & (rgb[..., 2] < 0.25)
+    # The roof's points, drawn red, outweigh the legend's red patch, all there is where nothing changed.
+    assert red.sum() > 5 * legend_only.sum() > 0
