@@ -39,7 +39,8 @@ def _hall(seed: int, *, density: float, width: float, length: float, height: flo
 def test_a_hall_wider_than_the_openings_is_no_ground(seed, density, width, length, height, upper):
     xyz, hall = _hall(seed, density=density, width=width, length=length, height=height, upper=upper)
     ground = auto_ground(xyz)
-    assert ground[hall].mean() < 0.02
+    # Its edge too: the ground's cells astride the walls hold roof points a storey over them.
+    assert ground[hall].mean() < 0.005
     assert ground[~hall].mean() > 0.995
     # Without the stage the openings leave the middle of the roof, and the passes spread it.
     assert auto_ground(xyz, params=WITHOUT)[hall].mean() > 0.5

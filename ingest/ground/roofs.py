@@ -11,8 +11,9 @@ its uphill side.
 The ground's lowest points are gridded (about 1.5 point spacings, as the hills stage does, so
 that sparse data has few empty cells) and joined into surfaces wherever neighbouring cells
 differ by less than a storey. A surface is a roof where it lies inside the grid (a surface cut
-by the data's edge may go on beyond it) and nearly all of its neighbouring ground lies a storey
-or more below its edge, at a foot that does not go on falling.
+by the data's edge may go on beyond it), nearly all of its neighbouring ground lies a storey
+or more below its edge, at a foot that does not go on falling, and more of its outline drops
+than rises (a yard among buildings lies under them).
 """
 
 from __future__ import annotations
@@ -73,7 +74,20 @@ def raised_roofs(
     # A roof of several levels shows its highest level first; the lower ones once it is gone.
     while (found := _roof_cells(np.where(roofs, np.nan, z), under, void, shape)).any():
         roofs |= found
-    return ground & roofs[row, col]
+    # A cell astride a roof's wall holds the ground at its foot and the roof's edge over it.
+    astride = ndimage.binary_dilation(roofs, structure=np.ones((3, 3), bool)) & ~roofs
+    edge = astride[row, col] & (xyz[:, 2] - z[row, col] > shape.step)
+    return ground & (roofs[row, col] | edge)
+
+
+@dataclass(frozen=True)
+class _Cells:
+    """The rasters a surface's neighbours are read from."""
+
+    z: NDArray[np.float64]  # the lowest ground point of each cell (NaN: none)
+    under: NDArray[np.float64]  # the lowest point of each cell holding no ground (NaN: none)
+    void: NDArray[np.bool_]  # the gaps in the data
+    label: NDArray[np.intp]  # each cell's surface (-1: no ground)
 
 
 def _roof_cells(
@@ -83,53 +97,43 @@ def _roof_cells(
     lowest point of each cell holding no ground (NaN: none) and ``void`` marks the gaps in the
     data."""
     label, count = _surfaces(z, shape.step)
-    judged, down, up, beyond = (np.zeros(count) for _ in range(4))
+    cells = _Cells(z, under, void, label)
+    judged, down, up = (np.zeros(count) for _ in range(3))
     # Only a surface's outline has neighbours of another kind, and a surface at the grid's edge
-    # (the terrain, mostly) is never a roof.
+    # (the terrain, mostly) is never a roof: it may go on beyond the data.
     edge = np.unique(np.r_[label[0], label[-1], label[:, 0], label[:, -1]])
     outline = (ndimage.maximum_filter(label, size=3) != label) | (ndimage.minimum_filter(label, size=3) != label)
     r, c = np.nonzero(outline & (label >= 0) & ~np.isin(label, edge))
     own = label[r, c]
     for offset in NEIGHBOURS:
-        seen, dropped, over, outside = _beside(z, under, void, label, r, c, offset, shape.step)
-        beyond += np.bincount(own[outside], minlength=count)
+        seen, dropped, over = _beside(cells, r, c, offset, shape.step)
         judged += np.bincount(own[seen], minlength=count)
         down += np.bincount(own[dropped], minlength=count)
         up += np.bincount(own[over], minlength=count)
-    beyond[edge[edge >= 0]] = 1
     # A roof drops to the ground beside it nearly everywhere the ground shows, and more of its
     # outline drops than rises: a yard among buildings, or a street between them, lies under
     # them. A higher part of the same building may rise over a lower roof on one side.
-    roof = (beyond == 0) & (judged > 0) & (down >= shape.min_share * judged) & (down > up)
+    roof = (judged > 0) & (down >= shape.min_share * judged) & (down > up)
+    roof[edge[edge >= 0]] = False
     return (label >= 0) & roof[np.maximum(label, 0)]
 
 
-def _beside(  # noqa: PLR0913 (the rasters, the cells and the step to their neighbours)
-    z: NDArray[np.float64],
-    under: NDArray[np.float64],
-    void: NDArray[np.bool_],
-    label: NDArray[np.intp],
-    r: NDArray[np.intp],
-    c: NDArray[np.intp],
-    offset: tuple[int, int],
-    step: float,
-) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
-    """For surface cells (r, c) and their neighbours at ``offset``: whether the neighbour is
-    ground or a gap (judged), whether it lies a wall's drop below, whether it is an object
-    standing a storey over the cell, and whether it lies beyond the grid."""
-    rows, cols = z.shape
-    r1, c1, r2, c2 = r + offset[0], c + offset[1], r + 2 * offset[0], c + 2 * offset[1]
-    outside = (r1 < 0) | (r1 >= rows) | (c1 < 0) | (c1 >= cols)
-    r1, c1 = np.clip(r1, 0, rows - 1), np.clip(c1, 0, cols - 1)
-    r2, c2 = np.clip(r2, 0, rows - 1), np.clip(c2, 0, cols - 1)
-    zp, zq, zq2, zo = z[r, c], z[r1, c1], z[r2, c2], under[r1, c1]
-    other = ~outside & (label[r1, c1] >= 0) & (label[r1, c1] != label[r, c])
+def _beside(
+    cells: _Cells, r: NDArray[np.intp], c: NDArray[np.intp], offset: tuple[int, int], step: float
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
+    """For surface cells (r, c) inside the grid's edge and their neighbours at ``offset``: whether
+    the neighbour is ground or a gap (judged), whether it lies a wall's drop below, and whether it
+    is an object standing a storey over the cell."""
+    rows, cols = cells.z.shape
+    r1, c1 = r + offset[0], c + offset[1]
+    r2, c2 = np.clip(r1 + offset[0], 0, rows - 1), np.clip(c1 + offset[1], 0, cols - 1)
+    zp, zq, zq2, zo = cells.z[r, c], cells.z[r1, c1], cells.z[r2, c2], cells.under[r1, c1]
+    other = (cells.label[r1, c1] >= 0) & (cells.label[r1, c1] != cells.label[r, c])
     # A wall's foot is level ground; a steep slope goes on falling past it (NaN: nothing past).
     drop = other & (zp - zq > step) & ~(zq - zq2 > step / 2)
     # An object beside a surface whose lowest point lies a storey under it stands at a wall's foot.
-    over, foot = ~outside & (zo - zp > step), ~outside & (zp - zo > step)
-    seen = other | (~outside & void[r1, c1]) | foot
-    return seen, drop | foot, over, outside
+    over, foot = zo - zp > step, zp - zo > step
+    return other | cells.void[r1, c1] | foot, drop | foot, over
 
 
 def _surfaces(z: NDArray[np.float64], step: float) -> tuple[NDArray[np.intp], int]:
