@@ -23,6 +23,7 @@ import itertools
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
+from multiprocessing import get_context
 from typing import Any
 
 import numpy as np
@@ -169,7 +170,8 @@ def grid_cv(workers: int) -> dict[str, Any]:
     """Every setting of :data:`GRID` on every scene; the setting best on all scenes, and per scene
     seed the one best on the others (total error, lower is better)."""
     settings = [dict(zip(GRID, v, strict=True)) for v in itertools.product(*GRID.values())]
-    with ProcessPoolExecutor(workers) as pool:
+    # Spawned, not forked: the peers above leave threads (and their locks) in this process.
+    with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
         table = list(pool.map(_grid_scores, settings))
     names = {str(i): t for i, t in enumerate(table)}
     groups = {case: case.split(" @ ")[0] for case in table[0] if case != "isprs"}
