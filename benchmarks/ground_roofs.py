@@ -74,7 +74,7 @@ def roof_scene(seed: int, density: float) -> RoofScene:
     width, length = float(rng.uniform(40, 120)), float(rng.uniform(40, 140))
     hx, hy = 20 + rng.uniform(0, 140 - width), 20 + rng.uniform(0, SIZE - 40 - length)
     hall = _inside(x, y, (hx, hy, hx + width, hy + length))
-    # Floor level from the terrain at the hall's lowest corner: its walls stand on the ground.
+    # The roof 6-15 m over the lowest ground under it: on a slope, its uphill side stands lower.
     z[hall] = np.min(z[hall]) + rng.uniform(6, 15) + rng.normal(0, 0.03, hall.sum())
     if rng.random() < 0.5:
         upper = hall & _inside(x, y, (hx, hy, hx + width / 3, hy + length))
@@ -86,7 +86,7 @@ def roof_scene(seed: int, density: float) -> RoofScene:
     yard = block & _inside(x, y, (bx + 13, by + 13, bx + 37, by + 37))
     z[block & ~yard] += rng.uniform(8, 14)
     ground &= ~(block & ~yard)
-    for _ in range(6):  # small houses, 10-16 m, where the rest leaves room
+    for _ in range(6):  # small houses, 14 × 12 m, where the rest leaves room
         cx, cy = rng.uniform(20, SIZE - 20, 2)
         house = _inside(x, y, (cx - 7, cy - 6, cx + 7, cy + 6))
         if (house & ~ground).any() or (house & yard).any():
