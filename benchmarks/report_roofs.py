@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+_KEYS = ("total", "kappa", "hall_as_ground_pct")  # the three figures of a table cell
+
 
 def _setting(s: dict[str, float]) -> str:
     return f"step {s['step']:g} m, share {s['min_share']:g}"
@@ -72,9 +74,6 @@ def ground_roofs_section(out: list[str], doc: dict[str, Any] | None, machine: st
             f"scene: {chosen}; held out {held_mean:.3f} %.",
             "",
         ]
-
-
-_KEYS = ("total", "kappa", "hall_as_ground_pct")
 
 
 def _cell(r: dict[str, Any]) -> str:

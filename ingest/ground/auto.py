@@ -163,6 +163,7 @@ def auto_ground(
     # groups of object cells), then hills (groups that rise smoothly out of the ground) join it.
     stages = [s for s in (GroundStage.ROOFS, GroundStage.EARTHWORKS, GroundStage.HILLS) if s not in p.skip]
     on_roof = np.zeros(len(pts), bool)
+    group_cell = _group_cell(pts, p)  # the roofs' and the hills' grid
     passes = p.refinements + 1
     while True:
         passes -= 1
@@ -181,14 +182,14 @@ def auto_ground(
         while stages and not found.any():
             stage = stages.pop(0)
             if stage is GroundStage.ROOFS:
-                on_roof = _roofs(pts, is_ground, p)
+                on_roof = raised_roofs(pts, is_ground, cell=group_cell, shape=p.roofs)
                 found = (current >= 0) & on_roof[np.maximum(current, 0)]
                 current = np.where(found, -1, current)
             else:
                 found = (
                     _earthworks(grid, surface, zmin, idx, current, objects & ~pits, p)
                     if stage is GroundStage.EARTHWORKS
-                    else _hills(grid, pts, is_ground, p)
+                    else _hills(grid, pts, is_ground, group_cell, p)
                 )
                 current = np.where(found, idx, current)
         if not found.any():
@@ -316,15 +317,12 @@ def _group_cell(pts: NDArray[np.float64], p: AutoParams) -> float:
     return max(p.cell, quantised(p.hills.spacings * point_spacing(pts[:, :2])))
 
 
-def _roofs(pts: NDArray[np.float64], is_ground: NDArray[np.bool_], p: AutoParams) -> NDArray[np.bool_]:
-    """Ground points on roofs too wide for the openings (:func:`ingest.ground.roofs.raised_roofs`)."""
-    return raised_roofs(pts, is_ground, cell=_group_cell(pts, p), shape=p.roofs)
-
-
-def _hills(grid: Grid, pts: NDArray[np.float64], is_ground: NDArray[np.bool_], p: AutoParams) -> NDArray[np.bool_]:
-    """Cells of ``grid`` whose lowest point is the lowest of a hill's cell
+def _hills(
+    grid: Grid, pts: NDArray[np.float64], is_ground: NDArray[np.bool_], cell: float, p: AutoParams
+) -> NDArray[np.bool_]:
+    """Cells of ``grid`` whose lowest point is the lowest of a hill's cell of ``cell`` m
     (:func:`ingest.ground.hills.smooth_hills`)."""
-    found = np.flatnonzero(smooth_hills(pts, is_ground, cell=_group_cell(pts, p), shape=p.hills))
+    found = np.flatnonzero(smooth_hills(pts, is_ground, cell=cell, shape=p.hills))
     out = np.zeros(grid.shape, bool)
     out[grid.index(pts[found, :2])] = True
     return out

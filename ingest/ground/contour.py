@@ -140,7 +140,7 @@ def active_contour_net(xyz: NDArray[np.float64], *, params: ContourParams | None
     for level in range(p.levels - 1, -1, -1):
         factor = 2**level
         grid = Grid(fine.x0, fine.y0, cell * factor, (-(-fine.shape[0] // factor), -(-fine.shape[1] // factor)))
-        target, _ = lowest_per_cell(grid, xyz)
+        target = lowest_per_cell(grid, xyz)
         if net is None:
             # The first net lies below everything: only here may far points attract it.
             net = np.full(grid.shape, np.nanmin(target) - 1.0)

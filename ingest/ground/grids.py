@@ -153,10 +153,14 @@ def heights_of(idx: NDArray[np.intp], xyz: NDArray[np.float64]) -> NDArray[np.fl
     return np.where(idx >= 0, xyz[idx, 2], np.nan)
 
 
-def lowest_per_cell(grid: Grid, xyz: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
-    """Raster of the lowest z per cell (NaN where empty) and the index of that point (-1 where empty)."""
-    idx = CellSort.of(grid, xyz).lowest()
-    return heights_of(idx, xyz), idx
+def lowest_per_cell(grid: Grid, xyz: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Raster of the lowest z per cell, NaN where empty (no sort: :class:`CellSort` is for the
+    points themselves)."""
+    row, col = grid.index(xyz[:, :2])
+    low = np.full(grid.shape, np.inf)
+    np.minimum.at(low, (row, col), xyz[:, 2])
+    low[np.isinf(low)] = np.nan
+    return low
 
 
 def corner_heights(grid: Grid, xyz: NDArray[np.float64], lowest: NDArray[np.intp]) -> NDArray[np.float32]:

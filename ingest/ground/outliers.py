@@ -111,7 +111,7 @@ def deep_pits(
     that is not a pit.
     """
     grid = Grid.covering(xyz[:, :2], cell)
-    zmin, _ = lowest_per_cell(grid, xyz)
+    zmin = lowest_per_cell(grid, xyz)
     pits = progressive_opening(-zmin, cell=cell, max_window=window, slope=slope, offset=depth)
     if not pits.any():
         return np.zeros(len(xyz), bool)

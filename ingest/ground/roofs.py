@@ -26,7 +26,7 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ingest.ground.grids import Grid
+from ingest.ground.grids import Grid, lowest_per_cell
 
 # The eight neighbours of a cell (row, column offsets); the first four join surfaces.
 NEIGHBOURS = ((0, 1), (1, 0), (1, 1), (1, -1), (0, -1), (-1, 0), (-1, -1), (-1, 1))
@@ -59,14 +59,9 @@ def raised_roofs(
     shape : what makes a surface a roof.
     """
     grid = Grid.covering(xyz[:, :2], cell)
-    row, col = grid.index(xyz[:, :2])
-    flat = row * grid.shape[1] + col
-    z, lowest = (np.full(grid.shape, np.inf) for _ in range(2))
-    np.minimum.at(z.ravel(), flat[ground], xyz[ground, 2])
-    np.minimum.at(lowest.ravel(), flat, xyz[:, 2])
-    empty = np.isinf(lowest)
-    under = np.where(np.isinf(z) & ~empty, lowest, np.nan)  # the lowest point of a cell without ground
-    z[np.isinf(z)] = np.nan
+    z, lowest = lowest_per_cell(grid, xyz[ground]), lowest_per_cell(grid, xyz)
+    empty = np.isnan(lowest)
+    under = np.where(np.isnan(z), lowest, np.nan)  # the lowest point of a cell without ground
     # A gap in the data may hide the ground at a roof's foot, or terrain going on: it counts
     # against a roof. Random sampling leaves empty cells, but hardly ever 3 x 3 of them.
     void = ndimage.binary_opening(empty, structure=np.ones((3, 3), bool))
@@ -76,8 +71,9 @@ def raised_roofs(
         roofs |= found
     # A cell astride a roof's wall holds the ground at its foot and the roof's edge over it.
     astride = ndimage.binary_dilation(roofs, structure=np.ones((3, 3), bool)) & ~roofs
-    edge = astride[row, col] & (xyz[:, 2] - z[row, col] > shape.step)
-    return ground & (roofs[row, col] | edge)
+    row, col = grid.index(xyz[:, :2])
+    eaves = astride[row, col] & (xyz[:, 2] - z[row, col] > shape.step)
+    return ground & (roofs[row, col] | eaves)
 
 
 @dataclass(frozen=True)
