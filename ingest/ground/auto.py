@@ -183,6 +183,8 @@ def auto_ground(
             stage = stages.pop(0)
             if stage is GroundStage.ROOFS:
                 on_roof = raised_roofs(pts, is_ground, cell=group_cell, shape=p.roofs)
+                # roof points that were no cell's lowest change no cell, so no pass may follow
+                is_ground &= ~on_roof
                 found = (current >= 0) & on_roof[np.maximum(current, 0)]
                 current = np.where(found, -1, current)
             else:
