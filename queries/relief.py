@@ -25,13 +25,19 @@ _DIRS = np.array([[1.0, 0.0], [0.0, 1.0], [np.sqrt(0.5), np.sqrt(0.5)], [np.sqrt
 
 
 def extreme_nodes(
-    lattice: NodeLattice, xg: NDArray[np.int64], yg: NDArray[np.int64], *, measure: Measure, detrend: bool = False
+    lattice: NodeLattice,
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    *,
+    measure: Measure,
+    detrend: int | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """x, y, z of each tile's lowest (``Measure.DEPTH``) or highest stored node (z NaN: none stored).
 
-    With ``detrend``, lowest and highest relative to the surface through the tile's
-    corners (bilinear), so that on a slope the node picked is the one in the ditch,
-    not the tile's downhill corner. For ``Measure.STEP`` the tile's centre, with z NaN.
+    With ``detrend`` (tiles), lowest and highest relative to the bilinear surface through
+    the corners of the square reaching that many tiles beyond the tile (0: its own corners),
+    so that on a slope the node picked is the one in the ditch, not the tile's downhill
+    corner. For ``Measure.STEP`` the tile's centre, with z NaN.
     """
     s = lattice.spacing
     if measure is Measure.STEP:
@@ -43,15 +49,31 @@ def extreme_nodes(
     ni = np.rint(np.asarray(xg) / s).astype(np.int64)[:, None] + di.ravel()[None, :]
     nj = np.rint(np.asarray(yg) / s).astype(np.int64)[:, None] + dj.ravel()[None, :]
     z = lattice.tile_nodes(xg, yg).reshape(len(ni), SUBGRID * SUBGRID)
-    u, v = di.ravel() / (SUBGRID - 1), dj.ravel() / (SUBGRID - 1)
-    last = SUBGRID - 1
-    corner = [z[:, k][:, None] for k in (0, last, last * SUBGRID, SUBGRID * SUBGRID - 1)]
-    plane = (1 - u) * (1 - v) * corner[0] + u * (1 - v) * corner[1] + (1 - u) * v * corner[2] + u * v * corner[3]
-    rel = z - np.where(np.isnan(plane), 0.0, plane) if detrend else z
+    rel = z if detrend is None else z - _corner_surface(lattice, xg, yg, di.ravel(), dj.ravel(), detrend)
     score = np.where(np.isnan(z), -np.inf, measure.sign * rel)
     k = score.argmax(axis=1)
     rows = np.arange(len(k))
     return ni[rows, k] * s, nj[rows, k] * s, z[rows, k]
+
+
+def _corner_surface(
+    lattice: NodeLattice,
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    di: NDArray[np.int64],
+    dj: NDArray[np.int64],
+    margin: int,
+) -> NDArray[np.float64]:
+    """(T, nodes) bilinear surface through the corners of each tile's square widened by
+    ``margin`` tiles each way, at the nodes offset (di, dj) from its corner; 0 where unknown."""
+    step = SUBGRID - 1
+    i0 = np.rint(np.asarray(xg) / lattice.spacing).astype(np.int64)[:, None] - margin * step
+    j0 = np.rint(np.asarray(yg) / lattice.spacing).astype(np.int64)[:, None] - margin * step
+    far = (2 * margin + 1) * step
+    corner = [lattice.at(i0 + a * far, j0 + b * far) for a, b in ((0, 0), (1, 0), (0, 1), (1, 1))]
+    u, v = (margin * step + di[None, :]) / far, (margin * step + dj[None, :]) / far
+    plane = (1 - u) * (1 - v) * corner[0] + u * (1 - v) * corner[1] + (1 - u) * v * corner[2] + u * v * corner[3]
+    return np.where(np.isnan(plane), 0.0, plane)
 
 
 def two_sided_relief(
@@ -251,24 +273,30 @@ def tile_relief(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Each tile's extreme node (x, y) and its two-sided relief.
 
-    Two nodes compete: the plain extreme and the extreme against the tile's corner
-    surface. The first misses a ditch crossing a sloping tile, the second one running
-    through the tile's corners; the tile keeps whichever stands out more. With
+    Three nodes compete: the plain extreme, the extreme against the tile's corner
+    surface, and the extreme against the corner surface ``reach`` metres (in whole tiles)
+    beyond the tile. The first misses a ditch crossing a sloping tile, the second one running through or
+    near the tile's corners (the corner surface then dips into it); the tile keeps whichever
+    stands out more, and the third only where neither stands out at all. With
     ``around`` (a closed form: mound, pit) the plain extreme against the ring of tiles
     ``reach`` metres away (:func:`ring_relief`).
     """
+    wide = max(1, round(reach / (lattice.spacing * (SUBGRID - 1))))  # the reach in tiles
     if around:
         x, y, z = extreme_nodes(lattice, xg, yg, measure=measure)
-        ring = max(1, round(reach / (lattice.spacing * (SUBGRID - 1))))
-        return x, y, ring_relief(lattice, xg, yg, z, measure=measure, tiles=ring)
+        return x, y, ring_relief(lattice, xg, yg, z, measure=measure, tiles=wide)
     best: tuple[NDArray[np.float64], ...] | None = None
-    for detrend in (False,) if measure is Measure.STEP else (False, True):
+    for detrend in (None,) if measure is Measure.STEP else (None, 0, wide):
         x, y, z = extreme_nodes(lattice, xg, yg, measure=measure, detrend=detrend)
         rel = two_sided_relief(lattice, x, y, z, measure=measure, reach=reach, along=along)
         if best is None:
             best = (x, y, rel)
             continue
         better = np.nan_to_num(rel, nan=-np.inf) > np.nan_to_num(best[2], nan=-np.inf)
+        if detrend == wide:
+            # only where the tile's own nodes found nothing standing out: the wider surface
+            # picked other nodes along the lines found, and those judged worse as lines
+            better &= ~(best[2] > 0)
         best = tuple(np.where(better, new, old) for new, old in zip((x, y, rel), best))
     assert best is not None
     return best[0], best[1], best[2]
