@@ -68,9 +68,10 @@ GRID_CELL = 1.0  # m: the finest cell it is estimated on; decimetre shifts need 
 class Shift:
     """The later survey's offset from the earlier one, and how well it is known.
 
-    ``sigma_xy`` and ``sigma_z`` are standard errors (m); ``nmad`` is the spread of the stable
-    differences after the shift (of the change the ground evidence supports, where the versions
-    hold evidence); ``stable_share`` the share of compared cells found stable.
+    ``sigma_xy`` and ``sigma_z`` are standard errors (m); ``residual_nmad`` is the spread of the
+    stable differences after the shift, and ``nmad``, which the level of detection takes, that of
+    the change the ground evidence supports on them (the same where the versions hold no
+    evidence); ``stable_share`` the share of compared cells found stable.
     ``horizontal`` and ``vertical`` say which parts apply.
     """
 
@@ -81,6 +82,7 @@ class Shift:
     sigma_z: float = float("nan")
     nmad: float = float("nan")
     stable_share: float = float("nan")
+    residual_nmad: float = float("nan")
     method: Coregistration = Coregistration.NONE
     horizontal: bool = False
     vertical: bool = False
@@ -114,6 +116,7 @@ class Shift:
             "sigma_xy": r(self.sigma_xy),
             "sigma_z": r(self.sigma_z),
             "nmad": r(self.nmad),
+            "residual_nmad": r(self.residual_nmad),
             "stable_share": r(self.stable_share),
             "horizontal_applied": bool(self.horizontal),
             "vertical_applied": bool(self.vertical),
@@ -135,6 +138,7 @@ class Shift:
             sigma_z=f("sigma_z"),
             nmad=f("nmad"),
             stable_share=f("stable_share"),
+            residual_nmad=f("residual_nmad"),
             method=parse(Coregistration, doc.get("method", "none")),
             horizontal=bool(doc.get("horizontal_applied")),
             vertical=bool(doc.get("vertical_applied")),
@@ -147,9 +151,29 @@ class Shift:
         parts.append(f"dz {self.dz:+.3f} m (± {self.sigma_z:.3f})")
         applied = [name for name, on in (("horizontal", self.horizontal), ("vertical", self.vertical)) if on]
         return (
-            f"{', '.join(parts)}; applied: {' and '.join(applied) or 'none'}; "
-            f"NMAD on stable ground {self.nmad:.3f} m ({100 * self.stable_share:.0f} % of cells stable)"
+            f"{', '.join(parts)}; applied: {' and '.join(applied) or 'none'}; {self._spread()}; "
+            f"{100 * self.stable_share:.0f} % of cells stable"
         )
+
+    def title(self) -> str:
+        """The shift in a few words, for a map's title."""
+        applied = "".join(name for name, on in (("xy", self.horizontal), ("z", self.vertical)) if on)
+        return (
+            f"shift dx {self.dx:+.2f}, dy {self.dy:+.2f} (± {self.sigma_xy:.2f}), dz {self.dz:+.2f} "
+            f"(± {self.sigma_z:.2f}) m, {'applied: ' + applied if applied else 'not applied'}; "
+            f"NMAD on stable ground {self._residual():.3f} m"
+        )
+
+    def _residual(self) -> float:
+        """The residual spread; records written before it was kept hold only the supported one."""
+        return self.residual_nmad if np.isfinite(self.residual_nmad) else self.nmad
+
+    def _spread(self) -> str:
+        """The residual spread, and the part of it the ground evidence supports where that differs."""
+        text = f"NMAD on stable ground {self._residual():.3f} m"
+        if np.isfinite(self.residual_nmad) and abs(self.residual_nmad - self.nmad) >= 0.0005:
+            text += f", {self.nmad:.3f} m of the change ground returns support"
+        return text
 
 
 def coregister(
@@ -436,9 +460,10 @@ def estimate_shift(
     if len(values) < MIN_STABLE:
         return Shift(dx=dx, dy=dy, sigma_xy=sigma_xy, stable_share=share, method=m)
     dz = half_sample_mode(values)  # not the median: see stable_cells
-    sigma_z = nmad(values) / np.sqrt(_independent(len(values), cell))
+    residual = nmad(values)  # the vertical shift moves no spread
+    sigma_z = residual / np.sqrt(_independent(len(values), cell))
     vertical = m is not Coregistration.AUTO or (abs(dz) > SIGNIFICANCE * sigma_z and abs(dz) > noise)
-    spread = nmad(values) if depth is None else _supported_spread(dh - (dz if vertical else 0.0), depth)
+    spread = residual if depth is None else _supported_spread(dh - (dz if vertical else 0.0), depth)
     return Shift(
         dx=dx,
         dy=dy,
@@ -447,6 +472,7 @@ def estimate_shift(
         sigma_z=float(sigma_z),
         nmad=spread,
         stable_share=share,
+        residual_nmad=residual,
         method=m,
         horizontal=bool(horizontal),
         vertical=bool(vertical),

@@ -65,6 +65,7 @@ def between(first: Shift, second: Shift) -> Shift:
         sigma_xy=float(np.hypot(np.nan_to_num(first.sigma_xy), np.nan_to_num(second.sigma_xy))),
         sigma_z=float(np.hypot(np.nan_to_num(first.sigma_z), np.nan_to_num(second.sigma_z))),
         nmad=_larger(first.nmad, second.nmad),
+        residual_nmad=_larger(first.residual_nmad, second.residual_nmad),
         horizontal=first.horizontal or second.horizontal,
         vertical=first.vertical or second.vertical,
     )

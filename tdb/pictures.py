@@ -340,7 +340,7 @@ def change_map(
     """Changed regions labelled with their kind: filled by the sign of their height change, or
     outlined over the DEM of difference ``dod`` where one is given (shades within ``lod`` are white).
     ``crs`` names the coordinates where there is no ``dod``; ``bounds`` default to the DEM's or the
-    regions' own."""
+    regions' own. A second line of ``title`` (the co-registration) goes under the count."""
     import shapely
     from matplotlib.colors import TwoSlopeNorm
 
@@ -378,7 +378,9 @@ def change_map(
         else [("changed region (labelled by kind)", (0.0, 0.0, 0.0), "line")]
     )
     _legend(ax, entries, title="changes")
-    ax.set_title(f"{title}: {len(features)} changed region(s)", fontsize=10)
+    head, _, below = title.partition("\n")
+    head = f"{head}: {len(features)} changed region(s)"
+    ax.set_title(f"{head}\n{below}" if below else head, fontsize=9 if below else 10)
     _save(fig, path, dpi=100, bbox_inches="tight")
 
 

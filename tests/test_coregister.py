@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from queries.coregister import estimate_shift, resample, stable_cells
+from queries.coregister import Shift, estimate_shift, resample, stable_cells
 from tdb.errors import CRSError
 from tdb.options import Coregistration
 from tdb.raster import Raster
@@ -101,6 +101,13 @@ def test_the_spread_is_that_of_the_change_the_ground_evidence_supports():
     assert plain.nmad > 0.06  # the shrubs widen the raw differences
     assert seen.nmad < 0.05  # 0.03 m noise in each survey: 0.042 m together
     assert abs(seen.dz - plain.dz) < 1e-9  # the shift itself is estimated on the raw surfaces
+    # a person is shown the surfaces' own residual spread, and beside it the supported one
+    assert abs(seen.residual_nmad - plain.nmad) < 1e-9 and plain.residual_nmad == plain.nmad
+    assert f"{seen.residual_nmad:.3f} m, {seen.nmad:.3f} m of the change" in seen.describe()
+    assert f"NMAD on stable ground {plain.nmad:.3f} m;" in plain.describe()
+    assert f"NMAD on stable ground {seen.residual_nmad:.3f} m" in seen.title()
+    again = Shift.from_json(seen.to_json())
+    assert np.allclose([again.nmad, again.residual_nmad], [seen.nmad, seen.residual_nmad], atol=1e-4)
 
 
 def test_resample_moves_by_the_fraction_asked_and_keeps_holes():

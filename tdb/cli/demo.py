@@ -94,7 +94,7 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
         change_map(
             out / "diff.png",
             found,
-            title="2020 → 2024, 2 m tiles",
+            title=f"2020 → 2024, 2 m tiles\n{shift.title()}",
             dod=dod,
             lod=level_of_detection(db, "2020", "2024", shift=shift),
         )

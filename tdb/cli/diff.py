@@ -118,10 +118,6 @@ def command(
     if png:
         from tdb.pictures import change_map
 
-        aligned = ""
-        if shift.horizontal:
-            aligned = f"; aligned by dx {shift.dx:+.2f}, dy {shift.dy:+.2f}, dz {shift.dz:+.2f} m"
-        elif shift.vertical:
-            aligned = f"; aligned by dz {shift.dz:+.2f} m"
+        aligned = "" if shift.method is Coregistration.NONE else f"\n{shift.title()}"
         change_map(png, found, title=f"{before} → {after}, {level} m tiles{aligned}", dod=grid, lod=lod, crs=crs)
         click.echo(f"change map → {png}", err=True)
