@@ -24,11 +24,13 @@ class Option(str, Enum):
 
 
 class GroundMethod(Option):
-    """Ground filters: the two from the papers and the product default."""
+    """Ground filters: the two from the papers and the product default; or the survey's own ground
+    class (ASPRS 2), as its provider classified it."""
 
     AUTO = "auto"
     SOHN = "sohn"
     CONTOUR = "contour"
+    CLASSIFIED = "classified"
 
 
 class GroundStage(Option):

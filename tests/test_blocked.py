@@ -237,3 +237,33 @@ def test_blocks_size_their_outlier_test_to_the_whole_survey(scene_file, tmp_path
     seen = ~excluded(cloud.classification, NOISE)
     assert sc.density == pytest.approx(point_density(cloud.xyz[seen, :2]), rel=1e-12)
     assert sc.squares == square_counts(cloud.x[seen], cloud.y[seen])  # counted chunk by chunk
+
+
+def test_the_providers_ground_class_blocked_is_the_one_piece_ground(scene_file, tmp_path):
+    from click.testing import CliRunner
+
+    from tdb.cli import main
+
+    db = tmp_path / "c.tdb"
+    args = ["ingest", str(scene_file), "--db", str(db), "--method", "classified"]
+    r = CliRunner().invoke(main, [*args, "--version", "whole"])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(main, [*args, "--version", "blocks", "--block", "96", "--workers", "1"])
+    assert r.exit_code == 0, r.output
+    with tdb.open(db) as d:
+        assert d.version("blocks").params["blocks"] > 1
+        for level in LEVELS:
+            a, b = _codes(d, "whole", level), _codes(d, "blocks", level)
+            assert set(a) == set(b)
+            assert np.mean([a[k] == b[k] for k in a]) >= 0.995, level
+    # a survey whose provider classified no ground: one line, non-zero, the database as it was
+    bare = read(scene_file)
+    bare = bare.take(np.flatnonzero(bare.classification != 2))
+    write_las(tmp_path / "bare.laz", bare)
+    r = CliRunner().invoke(
+        main,
+        ["ingest", str(tmp_path / "bare.laz"), "--db", str(db), "--version", "bare", "--method", "classified"],
+    )
+    assert r.exit_code != 0 and "classified ground" in r.output and len(r.output.strip().splitlines()) == 1
+    with tdb.open(db) as d:
+        assert "bare" not in [v.name for v in d.versions()] and "blocks" in [v.name for v in d.versions()]

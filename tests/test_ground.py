@@ -7,12 +7,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ingest.ground import classify_ground, low_outliers
+from ingest.ground import classify_ground, low_outliers, paper_ground
 from ingest.ground.evaluate import accuracy
 from ingest.ground.sohn import SohnParams, _facet_t, description_length, initial_corners, p_buf, p_on
 from ingest.readers import read
 from ingest.synth import make_scene, sample
-from tdb.cloud import GROUND
+from tdb.cloud import GROUND, from_arrays
 from tdb.errors import DegenerateInputError, InputError, OptionError
 from tests.conftest import data_file
 
@@ -329,3 +329,29 @@ def test_sohns_buffer_grown_with_the_distance_from_ground_climbs_a_dome():
     grown = paper_ground(xyz, "sohn", sohn=SohnParams(delta_h=0.3, buffer_grade=0.2))
     assert fixed.mean() < 0.97
     assert grown.mean() > 0.99
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(0.0, 0.9))
+def test_the_files_own_ground_class_is_its_ground(seed, share):
+    # a classified survey: ground (2), vegetation (5) over it, noise (7) under it
+    rng = np.random.default_rng(seed)
+    n = 600
+    x, y = rng.uniform(0, 40, n), rng.uniform(0, 40, n)
+    cls = rng.choice(np.array([2, 5, 7], np.uint8), size=n, p=[1 - share, share * 0.9, share * 0.1])
+    cls[:3], cls[3:6] = 2, 5  # some ground, and some of the rest
+    z = 10 + 0.05 * x + np.where(cls == 5, 4.0, 0.0) - np.where(cls == 7, 9.0, 0.0)
+    cloud = from_arrays(x, y, z, classification=cls)
+    ground = classify_ground(cloud, method="classified")
+    assert np.array_equal(ground, cls == GROUND)
+    # the excluded classes are never ground; with the ground class itself excluded, none is left
+    with pytest.raises(InputError, match="classified ground"):
+        classify_ground(cloud, method="classified", exclude=(2,))
+
+
+def test_a_survey_without_a_ground_class_cannot_lend_it():
+    xyz = np.column_stack([np.arange(10.0), np.arange(10.0) % 3, np.zeros(10)])
+    with pytest.raises(InputError, match="class 2"):
+        classify_ground(xyz, method="classified")  # arrays carry no classes
+    with pytest.raises(InputError, match="papers' filters"):
+        paper_ground(xyz, "classified")

@@ -14,7 +14,7 @@ from ingest.ground.outliers import deep_pits, low_outliers
 from ingest.ground.sohn import SohnParams, sohn_dowman
 from ingest.ground.tiling import available_cores, by_tiles
 from tdb.classes import NOISE, excluded
-from tdb.cloud import PointCloud, check_spread, from_arrays
+from tdb.cloud import GROUND, PointCloud, check_spread, from_arrays
 from tdb.errors import InputError
 from tdb.options import GroundMethod, parse
 from tdb.progress import Progress, or_silent
@@ -46,8 +46,10 @@ def classify_ground(
     Parameters
     ----------
     points : a :class:`PointCloud` or an (N, 3) array.
-    method : ``auto`` (default filter), ``sohn`` (Sohn & Dowman 2002) or
-        ``contour`` (Elmqvist active contour). See :class:`GroundMethod`.
+    method : ``auto`` (default filter), ``sohn`` (Sohn & Dowman 2002),
+        ``contour`` (Elmqvist active contour), or ``classified``: the points the survey's provider
+        classified as ground (ASPRS class 2), as national surveys deliver them. See
+        :class:`GroundMethod`.
     progress : told ``("ground filter", tiles done, tiles)`` as Sohn–Dowman's tiles finish (the
         other filters run whole: once, with (1, 1), at the end); see :mod:`tdb.progress`.
     exclude : class codes of points the filter never sees and never calls ground
@@ -62,6 +64,8 @@ def classify_ground(
     ------
     DegenerateInputError
         For fewer than three points, or points spanning no area (once ``exclude`` is applied).
+    InputError
+        For ``classified``, where no point the filter sees is classified ground.
     """
     m = parse(GroundMethod, method)
     cloud = points if isinstance(points, PointCloud) else from_arrays(*np.asarray(points, float).T, validate=False)
@@ -87,6 +91,15 @@ def _ground(
     xyz = cloud.xyz
     report = or_silent(progress)
     report(STEP, 0, 1)
+    if m is GroundMethod.CLASSIFIED:
+        ground = cloud.classification == GROUND
+        if not ground.any():
+            raise InputError(
+                f"{cloud.source}: no point is classified ground (ASPRS class 2), so its "
+                "own ground class cannot be used; a ground filter can find the ground instead"
+            )
+        report(STEP, 1, 1)
+        return ground
     if m is GroundMethod.AUTO:
         ground = auto_ground(
             xyz, returns=(cloud.return_number, cloud.number_of_returns), density=density, extent=extent
@@ -115,8 +128,8 @@ def paper_ground(
         If ``method`` is not one of the papers' filters.
     """
     m = parse(GroundMethod, method)
-    if m is GroundMethod.AUTO:
-        raise InputError("the default filter is not one of the papers' (sohn, contour)")
+    if m not in (GroundMethod.SOHN, GroundMethod.CONTOUR):
+        raise InputError(f"{m.value} is not one of the papers' filters (sohn, contour)")
     report = or_silent(progress)
     # Sohn's downward step would make a 25 m deep multipath cluster a TIN vertex (samp41).
     out = low_outliers(xyz, density=density) | deep_pits(xyz)

@@ -60,7 +60,8 @@ def crown_shortfalls(
     top = np.zeros(n)
     np.maximum.at(top, seg[on], np.asarray(height, float)[on])
     weight = np.where(count > 0, np.maximum(top, 0.0) * np.maximum(count, 1.0) ** -alpha, 0.0)
-    scale = float(np.mean(weight[measured]))
+    # the first deal may have found no crown with returns in all four parts where others did
+    scale = float(np.mean(weight[measured])) if len(measured) else 0.0
     return mean * weight / scale if scale > 0 else np.full(n, mean)
 
 

@@ -6,8 +6,7 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import exclude_option, input_options
-from tdb.options import GroundMethod
+from tdb.cli.options import exclude_option, input_options, method_option
 
 
 @click.command("classify")
@@ -18,9 +17,7 @@ from tdb.options import GroundMethod
 @click.option(
     "--buildings", type=click.Path(path_type=Path), help="GeoPackage or GeoJSON of the building footprints."
 )
-@click.option(
-    "--method", type=click.Choice(GroundMethod.values()), default="auto", show_default=True, help="Ground filter."
-)
+@method_option
 @click.option("--assume-metres", is_flag=True, help="Accept a file with no CRS as metres.")
 @input_options
 @exclude_option

@@ -6,19 +6,12 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import exclude_option, input_options, positive_metres
-from tdb.options import GroundMethod
+from tdb.cli.options import exclude_option, input_options, method_option, positive_metres
 
 
 @click.command("ground")
 @click.argument("cloud", type=click.Path(path_type=Path))
-@click.option(
-    "--method",
-    type=click.Choice(GroundMethod.values()),
-    default="auto",
-    show_default=True,
-    help="auto: the default filter; sohn: Sohn & Dowman 2002; contour: Elmqvist active contour.",
-)
+@method_option
 @click.option(
     "--out", type=click.Path(path_type=Path), help="LAS/LAZ of the input points, class 2 ground, 1 other."
 )
@@ -50,6 +43,7 @@ def command(
     Examples:
       tdb ground survey.laz --out ground.laz --dtm dtm.tif
       tdb ground survey.laz --method sohn --out sohn.laz
+      tdb ground classified.laz --method classified --dtm dtm.tif   # the file's own ground class
       tdb ground samp11.txt --crs EPSG:32632 --dtm samp11.tif --resolution 1
       tdb ground lidarhd.laz --exclude-classes 7,18,65 --out ground.laz
     """

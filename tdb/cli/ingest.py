@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import bbox_option, db_option, exclude_option, input_options
+from tdb.cli.options import bbox_option, db_option, exclude_option, input_options, method_option
 from tdb.options import GroundMethod, LabelScheme
 
 
@@ -55,7 +55,7 @@ def _summary(
 @db_option
 @click.option("--version", "version", required=True, help="Name of this survey in the database.")
 @click.option("--date", callback=_date, help="Acquisition date, YYYY-MM-DD.")
-@click.option("--method", type=click.Choice(GroundMethod.values()), default="auto", show_default=True)
+@method_option
 @click.option("--resolution", type=float, default=0.5, show_default=True, help="Dense model post spacing (m).")
 @click.option(
     "--flat-threshold",
@@ -113,6 +113,7 @@ def command(
       tdb ingest tiles/ --db county.tdb --version 2024 --resume   # after a kill, from its finished blocks
       tdb ingest survey_2024.laz --db park.tdb --version 2024 --replace
       tdb ingest lidarhd.laz --db ign.tdb --version 2023 --exclude-classes 7,18,65
+      tdb ingest ahn4.laz --db dike.tdb --version 2022 --method classified   # the provider's ground
       tdb ingest county.copc.laz --db town.tdb --version 2024 --bbox 500000,5500000,501000,5501000
     """
     import tdb

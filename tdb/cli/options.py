@@ -11,7 +11,7 @@ import click
 
 from tdb.bbox import check_bbox
 from tdb.errors import InputError
-from tdb.options import LabelScheme
+from tdb.options import GroundMethod, LabelScheme
 from tdb.tiles import LEVELS
 
 F = Callable[..., Any]
@@ -121,3 +121,15 @@ def bbox_option(*, required: bool = False) -> Callable[[F], F]:
     return click.option(
         "--bbox", callback=parse_bbox, required=required, help="Area x0,y0,x1,y1 in the database's CRS (metres)."
     )
+
+
+def method_option(func: F) -> F:
+    """``--method``: how the ground is found (:class:`tdb.options.GroundMethod`)."""
+    return click.option(
+        "--method",
+        type=click.Choice(GroundMethod.values()),
+        default=GroundMethod.AUTO.value,
+        show_default=True,
+        help="auto: the default filter; sohn: Sohn & Dowman 2002; contour: Elmqvist active contour; "
+        "classified: the file's own ground class (2), as its provider classified it.",
+    )(func)

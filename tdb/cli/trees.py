@@ -6,8 +6,7 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import exclude_option, input_options
-from tdb.options import GroundMethod
+from tdb.cli.options import exclude_option, input_options, method_option
 
 
 @click.command("trees")
@@ -15,9 +14,7 @@ from tdb.options import GroundMethod
 @click.option(
     "--out", type=click.Path(path_type=Path), required=True, help="GeoPackage (.gpkg) or GeoJSON of the trees."
 )
-@click.option(
-    "--method", type=click.Choice(GroundMethod.values()), default="auto", show_default=True, help="Ground filter."
-)
+@method_option
 @click.option(
     "--min-height", type=float, default=2.0, show_default=True, help="Leave out trees lower than this (m)."
 )
