@@ -77,6 +77,7 @@ class Filter:
     max_shoulder: float | None = None
     broad_width: float | None = None  # queries.profile: at least this wide is broad, whatever the shoulder
     max_spread: float | None = None  # queries.match: relief twice as far off, over the relief, at most this
+    min_spread: float | None = None  # queries.match: the same, at least this
     max_trend: float | None = None  # queries.profile: the measure's change along a line, over itself, at most
     max_width: float | None = None  # queries.match: the widest a form is (m), where its usual band sees no feet
     around: bool = False  # queries.relief: the extreme stands out all round (mound, pit), not across a line

@@ -141,11 +141,7 @@ class _Candidates:
             return None
         if flt.linear and elongation(self.ex[g], self.ey[g], level=level) < flt.min_elongation:
             return None
-        if (
-            self.wide is not None
-            and flt.max_spread is not None
-            and _spread(self.wide[g], measure) > flt.max_spread
-        ):
+        if self.wide is not None and not _spread_passes(_spread(self.wide[g], measure), flt):
             return None
         return measure
 
@@ -324,8 +320,9 @@ def _relief_farther(
     level: int,
 ) -> NDArray[np.float64] | None:
     """The relief of each tile's extreme node (``ex``, ``ey``, as its own relief picked it) read
-    ``SPREAD_READ`` times farther off; None where the filter sets no ``max_spread``."""
-    if flt.max_spread is None or not flt.linear or flt.measure is Measure.STEP or len(ex) == 0:
+    ``SPREAD_READ`` times farther off; None where the filter bounds no spread."""
+    unbounded = flt.max_spread is None and flt.min_spread is None
+    if unbounded or not flt.linear or flt.measure is Measure.STEP or len(ex) == 0:
         return None
     s = lattice.spacing
     ez = lattice.at(np.rint(ex / s).astype(np.int64), np.rint(ey / s).astype(np.int64))
@@ -338,6 +335,14 @@ def _spread(wide: NDArray[np.float64], measure: float) -> float:
     if not np.isfinite(wide).any() or not measure > 0:
         return float("nan")
     return float(np.nanmedian(wide)) / measure
+
+
+def _spread_passes(spread: float, flt: Filter) -> bool:
+    """Whether a form's spread lies within the filter's bounds (NaN, unknown, passes): a natural
+    valley or spur widens past its reach (``max_spread``); the strip between two ditches stands
+    out of them alone, not of the land beyond (``min_spread``)."""
+    too_wide = flt.max_spread is not None and spread > flt.max_spread
+    return not (too_wide or (flt.min_spread is not None and spread < flt.min_spread))
 
 
 def _centre_lines(
