@@ -9,7 +9,7 @@ import json
 from typing import Any
 
 from benchmarks.common import RESULTS, ROOT
-from benchmarks.report_feature_peers import feature_peers_section
+from benchmarks.report_feature_peers import feature_peers_section, spread_cv_section
 from benchmarks.report_objects import crown_base_section, objects_section
 from benchmarks.report_roofs import ground_roofs_section
 
@@ -923,6 +923,8 @@ def main() -> None:
     peers = _load("feature_peers")
     densities = [json.loads(p.read_text()) for p in sorted(RESULTS.glob("feature_peers_d*.json"))]
     feature_peers_section(out, peers, _machine(peers) if peers else "", densities)
+    spread = _load("spread_cv")
+    spread_cv_section(out, spread, _machine(spread) if spread else "")
     cv = _load("objects_cv")
     objects_section(out, cv, _load("objects_speed"), _machine(cv) if cv else "")
     crown_base = _load("crown_base_cv")

@@ -1,4 +1,5 @@
-"""A ditch's banks lie within the reach of its line; a natural valley widens beyond (max_spread)."""
+"""A ditch's banks lie within the reach of its line; a natural valley widens beyond (max_spread); a
+ditch lies below the land beyond its sides too (min_spread)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import tdb
 from ingest.pipeline import IngestOptions, ingest
 from ingest.synth import make_scene, sample
 from ingest.synth.forms import Feature
+from ingest.synth.scene import Relief
 from queries.match import find, resolve
 
 pytestmark = pytest.mark.slow
@@ -56,3 +58,25 @@ def test_the_filter_keeps_the_narrow_form_and_drops_the_wide_one(hollows, kind, 
     unbounded = find(db, "v", replace(flt, max_spread=None))
     assert _found_near(unbounded, scene.features[look_alike]) > 0.3
     assert np.isclose(_found_near(unbounded, scene.features[form]), _found_near(matches, scene.features[form]))
+
+
+def test_the_trough_at_a_banks_uphill_foot_is_no_ditch(tmp_path):
+    # A 1.2 m bank along the contour of a 12 % slope, and a true ditch on the same slope: against
+    # the terrain 4 m off, the foot between the bank and the slope above it is a trough; 8 m
+    # off, past the bank, the land lies below it.
+    base = make_scene(seed=2, size=160)
+    x0, y0 = base.bounds[:2]
+    k = 2 * np.pi / 1000.0  # one long wave: about a plane rising 12 % across the bank
+    relief = Relief(100.0, ((0.12 / k, 0.0, k, -k * (y0 + 80)),), (x0, y0), (1.0, 0.0), 0.0, 1.0)
+    bank = Feature("ridge", shapely.LineString([(x0 + 20, y0 + 80), (x0 + 140, y0 + 80)]), 1.2, 4.0, "U", 0)
+    ditch = Feature("ditch", shapely.LineString([(x0 + 20, y0 + 125), (x0 + 140, y0 + 125)]), 0.8, 3.0, "V", 1)
+    scene = replace(base, relief=relief, features=(bank, ditch), buildings=(), trees=())
+    db = tdb.open(tmp_path / "foot.tdb", create=True)
+    ingest(sample(scene, density=4, seed=2), db, version="v", options=IngestOptions(exclude=()))
+    flt = resolve("ditch")
+    assert flt.min_spread is not None
+    matches = find(db, "v", flt)
+    assert _found_near(matches, ditch) > 0.8
+    assert _found_near(matches, bank) < 0.1
+    unbounded = find(db, "v", replace(flt, min_spread=None))  # the bound is what drops the foot
+    assert _found_near(unbounded, bank) > 0.5
