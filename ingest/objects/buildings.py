@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 
 from ingest.ground.grids import Grid
 from ingest.objects.cover import BUILDING_CELL, Cover
+from ingest.objects.walls import fit_walls
 from tdb.cloud import BUILDING
 from tdb.kdtree import plan_tree
 from tdb.objects import Building
@@ -30,10 +31,12 @@ ROOF_TOP = 0.98  # quantile of the roof returns' heights taken as the roof's top
 
 @dataclass(frozen=True)
 class FootprintParams:
-    """``refine``: footprint cells per texture cell, across; ``simplify`` (texture cells): the
-    outline's largest departure after simplification."""
+    """``refine``: footprint cells per texture cell, across; ``walls``: fit the outline wall by
+    wall (:mod:`ingest.objects.walls`), at the texture cell's resolution; ``simplify`` (texture
+    cells): the largest departure of an outline not so fitted, after simplification."""
 
     refine: int = 4
+    walls: bool = True
     simplify: float = 0.5
 
 
@@ -66,7 +69,8 @@ def find_buildings(
         if shape is None:
             continue
         height = float(np.quantile(cover.height[mine], ROOF_TOP))
-        out.append(Building(shape.simplify(p.simplify * grid.cell), height))
+        walls = fit_walls(shape, resolution=grid.cell) if p.walls else None
+        out.append(Building(shape.simplify(p.simplify * grid.cell) if walls is None else walls, height))
     return sorted(out, key=lambda b: -b.area)
 
 
