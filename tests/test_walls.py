@@ -64,7 +64,8 @@ def test_fitted_walls_are_nearer_the_footprint_than_the_drawn_outline(
     assert fitted is not None
     assert fitted.is_valid
     assert iou(fitted, truth) > iou(outline.simplify(cell / 2), truth)
-    assert iou(fitted, truth) > 0.93
+    # on average within about a seventh of a spacing of the true walls
+    assert 1 - iou(fitted, truth) < 0.3 * spacing * truth.length / truth.area
     # nine tenths of the outline on walls square to one another
     xy = np.asarray(fitted.exterior.coords)
     d = np.diff(xy, axis=0)
