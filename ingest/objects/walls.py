@@ -21,7 +21,6 @@ from numpy.typing import NDArray
 
 ALONG, ACROSS, FREE = 0, 1, 2  # a stretch parallel to the main direction, square to it, or neither
 MIN_SINE = 0.5  # lines meeting at under 30° are joined by a step, not intersected: a spike is no corner
-KEY, KIND, STEP = 3, 1, 3
 ANGLE_STEP = 0.5  # degrees between the directions tried
 SUB = 4  # bins of resolution / 8 in the sliding window: half a resolution across a direction
 MIN_CELLS = 4  # a footprint narrower than this many resolutions has no wall a fit could find
