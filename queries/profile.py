@@ -35,6 +35,7 @@ import shapely.ops
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
+from tdb.median import weighted_median
 from tdb.options import Measure
 
 PIECE = 20.0  # m of line per cross-section fit
@@ -239,9 +240,3 @@ def _cross_section(piece: shapely.LineString, nodes: Nodes, sign: float, band: f
     coef = np.linalg.lstsq(design[far], z[idx][far], rcond=None)[0]
     relief = sign * (design @ coef - z[idx])
     return fit_profile(offset[near], relief[near], band=band)
-
-
-def weighted_median(values: NDArray[np.float64], weights: NDArray[np.float64]) -> float:
-    order = np.argsort(values)
-    cum = np.cumsum(weights[order])
-    return float(values[order][np.searchsorted(cum, cum[-1] / 2)])

@@ -13,11 +13,12 @@ from queries.history import change_history
 from queries.language import Query, parse
 from queries.match import find, resolve
 from queries.object_changes import object_changes
-from queries.profile import SIDE, Nodes, Stretch, stretches, weighted_median
+from queries.profile import SIDE, Nodes, Stretch, stretches
 from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import QueryError
 from tdb.geojson import feature
+from tdb.median import weighted_median
 from tdb.objects import building_features, tree_features
 from tdb.options import Measure
 from tdb.progress import Progress, or_silent

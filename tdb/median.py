@@ -1,4 +1,4 @@
-"""The median of a square window about each cell of a raster."""
+"""The median of a square window about each cell of a raster, and weighted quantiles."""
 
 from __future__ import annotations
 
@@ -42,3 +42,15 @@ def median_filter(
         windows = sliding_window_view(padded[r : stop + 2 * half], (size, size)).reshape(-1, size * size)
         out[r:stop] = np.partition(windows, middle, axis=1)[:, middle].reshape(stop - r, cols)
     return out
+
+
+def weighted_quantile(values: NDArray[np.float64], weights: NDArray[np.float64], q: float) -> float:
+    """The smallest of ``values`` at or past the share ``q`` of their summed ``weights``."""
+    order = np.argsort(values)
+    cum = np.cumsum(weights[order])
+    return float(values[order][np.searchsorted(cum, q * cum[-1])])
+
+
+def weighted_median(values: NDArray[np.float64], weights: NDArray[np.float64]) -> float:
+    """:func:`weighted_quantile` at one half."""
+    return weighted_quantile(values, weights, 0.5)

@@ -19,6 +19,8 @@ import numpy as np
 import shapely
 from numpy.typing import NDArray
 
+from tdb.median import weighted_quantile
+
 ALONG, ACROSS, FREE = 0, 1, 2  # a stretch parallel to the main direction, square to it, or neither
 MIN_SINE = 0.5  # lines meeting at under 30° are joined by a step, not intersected: a spike is no corner
 ANGLE_STEP = 0.5  # degrees between the directions tried
@@ -95,17 +97,11 @@ def _width(polygon: shapely.Polygon) -> float:
     return float(min(np.hypot(*(corners[1] - corners[0])), np.hypot(*(corners[2] - corners[1]))))
 
 
-def _frame(ring: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
-    """``ring`` turned by ``-angle`` about its vertices' mean."""
-    c, s = np.cos(angle), np.sin(angle)
-    return (ring - ring[:-1].mean(axis=0)) @ np.array([[c, -s], [s, c]])
-
-
 def _fit_ring(ring: NDArray[np.float64], angle: float, resolution: float) -> NDArray[np.float64] | None:
     """The ring's walls as lines in the frame of ``angle``, joined at their meeting points."""
     c, s = np.cos(angle), np.sin(angle)
     centre = ring[:-1].mean(axis=0)
-    uv = _frame(ring, angle)
+    uv = (ring - centre) @ np.array([[c, -s], [s, c]])
     stretches = _stretches(uv, resolution)
     if len(stretches) < 3:
         return None
@@ -173,19 +169,13 @@ def _kind(mid: NDArray[np.float64], length: NDArray[np.float64], resolution: flo
 
 def _spread(values: NDArray[np.float64], weight: NDArray[np.float64]) -> float:
     """The weighted 80th percentile of the departures from the weighted median."""
-    return _quantile(np.abs(values - _quantile(values, weight, 0.5)), weight, 0.8)
-
-
-def _quantile(values: NDArray[np.float64], weight: NDArray[np.float64], q: float) -> float:
-    order = np.argsort(values)
-    cum = np.cumsum(weight[order])
-    return float(values[order][min(np.searchsorted(cum, q * cum[-1]), len(order) - 1)])
+    return weighted_quantile(np.abs(values - weighted_quantile(values, weight, 0.5)), weight, 0.8)
 
 
 def _offset(mid: NDArray[np.float64], length: NDArray[np.float64], span: NDArray[np.intp], kind: int) -> float:
     if kind == FREE:
         return 0.0
-    return _quantile(mid[span, 1 - kind], length[span], 0.5)
+    return weighted_quantile(mid[span, 1 - kind], length[span], 0.5)
 
 
 def _line(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
