@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import platform
 import subprocess
 import time
@@ -26,15 +27,28 @@ def machine() -> dict[str, Any]:
         ).stdout.strip()
     except OSError:
         commit = "unknown"
-    cpu = "unknown"
+    cpu, cores = "unknown", set()
     try:
+        package = ""
         for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
+            key, _, value = (part.strip() for part in line.partition(":"))
+            if key == "model name" and cpu == "unknown":
+                cpu = value
+            elif key == "physical id":
+                package = value
+            elif key == "core id":
+                cores.add((package, value))
     except OSError:
         pass
-    return {"cpu": cpu, "python": platform.python_version(), "date": time.strftime("%Y-%m-%d"), "commit": commit}
+    return {
+        "cpu": cpu,
+        # two logical CPUs on one core's two threads run two workers slower than two cores do
+        "cores": len(cores) or None,
+        "logical_cpus": os.cpu_count(),
+        "python": platform.python_version(),
+        "date": time.strftime("%Y-%m-%d"),
+        "commit": commit,
+    }
 
 
 def file_run_args(description: str | None) -> Any:

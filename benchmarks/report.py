@@ -23,8 +23,10 @@ def _load(name: str) -> dict[str, Any] | None:
 
 def _machine(doc: dict[str, Any]) -> str:
     m = doc.get("machine", {})
+    cores = f" ({m['cores']} cores, {m['logical_cpus']} logical CPUs)" if m.get("cores") else ""
     return (
-        f"{m.get('cpu', '?')}, Python {m.get('python', '?')}, {m.get('date', '?')}, commit {m.get('commit', '?')}"
+        f"{m.get('cpu', '?')}{cores}, Python {m.get('python', '?')}, {m.get('date', '?')}, "
+        f"commit {m.get('commit', '?')}"
     )
 
 
