@@ -20,6 +20,23 @@ DATA = ROOT.parent / "shared" / "data"
 RESULTS = ROOT / "benchmarks" / "results"
 
 
+def _processor() -> tuple[str, int | None]:
+    """The CPU's model name and its physical cores (distinct package and core ids), from /proc/cpuinfo."""
+    names, cores, package = [], set(), ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            key, _, value = (part.strip() for part in line.partition(":"))
+            if key == "model name":
+                names.append(value)
+            elif key == "physical id":
+                package = value
+            elif key == "core id":
+                cores.add((package, value))
+    except OSError:
+        pass
+    return (names[0] if names else "unknown"), len(cores) or None
+
+
 def machine() -> dict[str, Any]:
     try:
         commit = subprocess.run(
@@ -27,23 +44,11 @@ def machine() -> dict[str, Any]:
         ).stdout.strip()
     except OSError:
         commit = "unknown"
-    cpu, cores = "unknown", set()
-    try:
-        package = ""
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            key, _, value = (part.strip() for part in line.partition(":"))
-            if key == "model name" and cpu == "unknown":
-                cpu = value
-            elif key == "physical id":
-                package = value
-            elif key == "core id":
-                cores.add((package, value))
-    except OSError:
-        pass
+    cpu, cores = _processor()
     return {
         "cpu": cpu,
         # two logical CPUs on one core's two threads run two workers slower than two cores do
-        "cores": len(cores) or None,
+        "cores": cores,
         "logical_cpus": os.cpu_count(),
         "python": platform.python_version(),
         "date": time.strftime("%Y-%m-%d"),
