@@ -116,7 +116,7 @@ def run(out: Path, *, seed: int = 7, size: float = 250.0, density: float = 3.0) 
             crs=db.crs("2024"),
         )
         counts = ", ".join(
-            f"{sum(f['properties']['kind'] == k for f in moved)} {k}"
+            f"{k}: {sum(f['properties']['kind'] == k for f in moved)}"
             for k in sorted({f["properties"]["kind"] for f in moved})
         )
         done(
