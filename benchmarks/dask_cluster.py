@@ -6,7 +6,8 @@ address only. The same file is ingested block by block in three ways, each in it
 the local pool of two workers, on the cluster, and with one local worker, each three times (the
 median kept: one run's time varies by a tenth on a shared machine). Reported: the seconds of
 each, the cluster against the pool (target: within 10 %), and whether the cluster's version is
-the pool's, tile for tile at every level and kept point for kept point.
+the pool's, tile for tile at every level and kept point for kept point: for every run of each
+kind against the pool's first.
 
     python -m benchmarks.dask_cluster [--file isprs/FSite5_orig-utm.laz] [--block 512]
 """
@@ -32,6 +33,7 @@ from benchmarks.common import DATA, file_run_args, median_run, run_child, save
 from tdb.tiles import LEVELS
 
 WORKERS = 2
+REPEATS = 3  # runs of each kind, every one compared with the pool's first
 START_SECONDS = 60  # how long the scheduler and workers may take to come up
 
 
@@ -97,15 +99,30 @@ def _run(kind: str, src: str, db_path: str, block: float, address: str) -> None:
     print(json.dumps({"seconds": time.perf_counter() - t0}))
 
 
-def _identical(db: Any, a: str, b: str) -> dict[str, bool]:
-    """Whether versions ``a`` and ``b`` hold the same tiles at every level and the same kept points."""
+def _identical(a: tuple[Any, str], b: tuple[Any, str]) -> dict[str, bool]:
+    """Whether versions ``a`` and ``b`` (each a database and a version's name) hold the same
+    tiles at every level and the same kept points."""
     out = {}
     for level in LEVELS:
-        ta, tb = (db.tiles(v, level=level) for v in (a, b))
+        ta, tb = (db.tiles(v, level=level) for db, v in (a, b))
         out[f"tiles_{level}m"] = all(np.array_equal(x, y) for x, y in zip(ta, tb))
-    pa, pb = (db.points(v, level=2) for v in (a, b))
+    pa, pb = (db.points(v, level=2) for db, v in (a, b))
     out["kept_points"] = all(np.array_equal(x, y) for x, y in zip(pa, pb))
     return out
+
+
+def _every_run_identical(tmp: Path, reference: tuple[Any, str], kind: str) -> list[bool]:
+    """For each of ``kind``'s runs, whether its version is ``reference``'s in every tile and kept point:
+    a run that differs only now and then would pass a check of one run."""
+    out = []
+    for i in range(REPEATS):
+        db = tdb.open(_db_path(tmp, kind, i))
+        out.append(all(_identical(reference, (db, kind)).values()))
+    return out
+
+
+def _db_path(tmp: Path, kind: str, i: int) -> str:
+    return str(tmp / f"{kind}{i}.tdb")
 
 
 def main() -> None:
@@ -115,23 +132,23 @@ def main() -> None:
         _run(kind, src, db_path, float(block), address)
         return
     src = str(DATA / args.file)
-    with tempfile.TemporaryDirectory() as tmp:
-        db_path = str(Path(tmp) / "d.tdb")
+    with tempfile.TemporaryDirectory() as name:
+        tmp = Path(name)
 
         def child(kind: str, address: str = "-") -> dict[str, Any]:
-            """The median of three runs; the first stores its version in the compared database."""
+            """The median of :data:`REPEATS` runs, each into its own database."""
 
             def one(i: int) -> dict[str, Any]:
-                path = db_path if i == 0 else str(Path(tmp) / f"{kind}{i}.tdb")
-                return run_child("dask_cluster", kind, src, path, str(args.block), address)
+                return run_child("dask_cluster", kind, src, _db_path(tmp, kind, i), str(args.block), address)
 
-            return median_run(one)
+            return median_run(one, repeats=REPEATS)
 
         runs = {"pool": child("pool")}
-        with local_cluster(Path(tmp)) as address:
+        with local_cluster(tmp) as address:
             runs["cluster"] = child("cluster", address)
         runs["one_worker"] = child("one_worker")
-        db = tdb.open(db_path)
+        db = tdb.open(_db_path(tmp, "pool", 0))
+        pool = (db, "pool")
         doc = {
             "file": args.file,
             "points": db.version("pool").stats.points,
@@ -141,7 +158,10 @@ def main() -> None:
             "cluster_over_pool": runs["cluster"]["seconds"] / runs["pool"]["seconds"],
             "pool_speedup": runs["one_worker"]["seconds"] / runs["pool"]["seconds"],
             "cluster_speedup": runs["one_worker"]["seconds"] / runs["cluster"]["seconds"],
-            "identical": _identical(db, "pool", "cluster"),
+            "identical": _identical(pool, (tdb.open(_db_path(tmp, "cluster", 0)), "cluster")),
+            "identical_runs": {
+                kind: _every_run_identical(tmp, pool, kind) for kind in ("pool", "cluster", "one_worker")
+            },
         }
     print(doc)
     print(save("dask_cluster", doc))

@@ -433,6 +433,14 @@ def dask_section(out: list[str]) -> None:
         + ".",
         "",
     ]
+    every = doc.get("identical_runs")
+    if every:
+        out += [
+            "Runs whose version is the pool's first, tile for tile and kept point for kept point: "
+            + ", ".join(f"{k.replace('_', ' ')} {sum(v)} of {len(v)}" for k, v in every.items())
+            + ".",
+            "",
+        ]
 
 
 def ingest_sites_section(out: list[str]) -> None:
