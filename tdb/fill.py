@@ -206,10 +206,11 @@ def fill_lines_stack(
     known = ~np.isnan(flat)
     code = _pattern_codes(known)
     patterns, inverse, counts = np.unique(code, return_inverse=True, return_counts=True)
-    tag = (rows, cols, passes, cells.tobytes())
-    # Weights pay off for a pattern shared by several rasters (or already worked out);
-    # the long tail of rare patterns is filled raster by raster.
-    shared = (counts >= MIN_SHARED) | np.array([(*tag, int(p)) in _WEIGHTS for p in patterns.tolist()], bool)
+    # Weights pay off for a pattern shared by several rasters; the long tail of rare patterns is
+    # filled raster by raster. Which way a raster goes is decided by this call's rasters alone,
+    # never by the weights earlier calls left: the two ways differ in the last bits, and a result
+    # must not depend on what the process did before (a block modelled on any worker).
+    shared = counts >= MIN_SHARED
     out = np.full((count, len(cells)), np.nan)
     rare = np.flatnonzero(~shared[inverse])
     if len(rare):
