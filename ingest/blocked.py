@@ -56,18 +56,19 @@ from numpy.typing import NDArray
 
 from ingest.block_size import block_side
 from ingest.block_totals import BlockResult, Totals
-from ingest.catalog import Box, Catalog, is_catalog, open_catalog, overlaps
+from ingest.catalog import Box, Catalog, is_catalog, open_catalog
 from ingest.ground import classify_ground
 from ingest.ground.outliers import DENSITY_BLOCK
 from ingest.ground.tiling import available_cores, one_blas_thread_here
 from ingest.noise import fullest_square, pilot_threshold, square_counts
 from ingest.objects import Objects
 from ingest.objects.cover import SINGLE_RETURNS
+from ingest.overlaps import SharedPoints
 from ingest.pipeline import IngestOptions, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
 from ingest.readers import RECORD, from_records, in_box, iter_records
 from ingest.spool import Spool
-from tdb.bbox import check_bbox, clip_bbox, points_in_box
+from tdb.bbox import check_bbox, clip_bbox, overlaps, points_in_box
 from tdb.categories import NO_DATA
 from tdb.classes import excluded
 from tdb.crs import as_crs
@@ -180,7 +181,7 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
         # Blocks are written as they come, while the others are modelled, into the one
         # transaction of the version: nothing is committed before the last block.
         with db.writing(version, info=info, replace=replace) as writer:
-            store = _Store(writer, o)
+            store = _Store(writer, o, twice=sc.twice)
             for k in sorted(done):
                 store.add(spool.get(k))
             jobs = _jobs(blocks, sc.files, o, crs, skip=done)
@@ -279,12 +280,14 @@ def _grown(box: Box, by: float) -> Box:
 @dataclass(frozen=True)
 class Scattered:
     """What the pass over the input leaves: a file of points per block, the survey's point
-    density, how many points each block owns, and the points per pilot square (:mod:`ingest.noise`)."""
+    density, how many points each block owns, the points per pilot square (:mod:`ingest.noise`),
+    and how many points overlapping tiles held twice."""
 
     files: list[Path]
     density: float
     own: NDArray[np.int64]
     squares: dict[tuple[int, int], int]
+    twice: int = 0  # points dropped as held by two overlapping tiles (ingest.overlaps)
 
 
 def _scatter(
@@ -297,8 +300,8 @@ def _scatter(
     box: Box | None = None,
     skip: set[int] | frozenset[int] = frozenset(),
 ) -> Scattered:
-    """One pass over the input (or its points in ``box``): every point appended to the file of
-    each block whose buffered box holds it; the survey's point density as the ground filter
+    """One pass over the input (or its points in ``box``): every point, once where tiles overlap,
+    appended to the file of each block whose buffered box holds it; the survey's point density as the ground filter
     measures it on the points it sees (those not of the ``exclude`` classes), over the whole survey,
     once; how many points each block owns (in its square, for the progress of the modelling); and
     how many points it sees in each pilot square. The blocks of ``skip`` (finished by an earlier
@@ -310,10 +313,13 @@ def _scatter(
     seen, cells = 0, []
     squares: Counter[tuple[int, int]] = Counter()
     report("reading", 0, total)
-    for f in catalog.files:
+    shared = SharedPoints([f.bounds for f in catalog.files])
+    for i, f in enumerate(catalog.files):
         if box is not None and not overlaps(f.bounds, box):
             continue
-        for rec in iter_records(f.path, chunk_size=CHUNK, box=box):
+        for chunk in iter_records(f.path, chunk_size=CHUNK, box=box):
+            done += len(chunk)
+            rec = shared(i, chunk)
             use = ~excluded(rec["c"], exclude)
             seen += int(use.sum())
             cells.append(np.unique(tile_key(*(np.floor(rec[a][use] / DENSITY_BLOCK) for a in "xy"))))
@@ -330,10 +336,9 @@ def _scatter(
                     )
                     with files[k].open("ab") as fh:
                         part.tofile(fh)
-            done += len(rec)
             report("reading", done, total)
     occupied = len(np.unique(np.concatenate(cells))) * DENSITY_BLOCK**2 if cells else 0.0
-    return Scattered(files, seen / occupied if occupied else 0.0, own, dict(squares))
+    return Scattered(files, seen / occupied if occupied else 0.0, own, dict(squares), shared.dropped)
 
 
 def _touched(grown: NDArray[np.float64], box: Box) -> NDArray[np.intp]:
@@ -622,6 +627,7 @@ class _Store:
 
     writer: VersionWriter
     options: IngestOptions
+    twice: int = 0  # points overlapping tiles held twice, dropped
     totals: Totals = field(default_factory=Totals)
 
     def add(self, r: BlockResult | None) -> None:
@@ -652,6 +658,8 @@ class _Store:
         }
         if t.peak_mib:  # modelled in worker processes
             params["worker_peak_mib"] = t.peak_mib
+        if self.twice:
+            params["overlap_points_dropped"] = self.twice
         self.writer.describe(params=params, stats=t.stats(bounds).to_json())
 
 

@@ -2,7 +2,8 @@
 
 Like lidR's LAScatalog, a catalog reads only the headers up front (bounds, point counts, CRS),
 then the points of any box from the files that reach it, chunk by chunk. Tiles may overlap
-(their points in a box are merged); tiles in different coordinate systems are refused.
+(their points in a box are merged, each once: :mod:`ingest.overlaps`); tiles in different
+coordinate systems are refused.
 """
 
 from __future__ import annotations
@@ -17,7 +18,9 @@ from typing import Any
 import laspy
 import numpy as np
 
+from ingest.overlaps import SharedPoints
 from ingest.readers import RECORD, Box, from_records, iter_records
+from tdb.bbox import overlaps
 from tdb.cloud import PointCloud
 from tdb.crs import describe
 from tdb.errors import CRSError, FormatError, InputError, TdbError, TdbIOError
@@ -62,8 +65,15 @@ class Catalog:
         return out
 
     def read(self, box: Box) -> PointCloud:
-        """The points of every tile inside ``box`` (edges included), merged."""
-        parts = [rec for f in self.files if overlaps(f.bounds, box) for rec in iter_records(f.path, box=box)]
+        """The points of every tile inside ``box`` (edges included), merged, each once where
+        tiles overlap (:mod:`ingest.overlaps`)."""
+        shared = SharedPoints([f.bounds for f in self.files])
+        parts = [
+            shared(i, rec)
+            for i, f in enumerate(self.files)
+            if overlaps(f.bounds, box)
+            for rec in iter_records(f.path, box=box)
+        ]
         rec = np.concatenate(parts) if parts else np.zeros(0, RECORD)
         return from_records(rec, crs=self.crs, source=f"catalog of {len(self.files)} files")
 
@@ -150,7 +160,3 @@ def _paths(source: str | os.PathLike[str] | Sequence[str | os.PathLike[str]]) ->
     if any(c in str(source) for c in "*?["):
         return sorted(Path(q) for q in glob.glob(str(source)) if Path(q).suffix.lower() in SUFFIXES)
     return [p]
-
-
-def overlaps(a: Box, b: Box) -> bool:
-    return a[0] <= b[2] and b[0] <= a[2] and a[1] <= b[3] and b[1] <= a[3]

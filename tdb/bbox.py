@@ -64,6 +64,11 @@ def column_range(points: NDArray[Any]) -> tuple[NDArray[np.float64], NDArray[np.
     return lo, hi
 
 
+def overlaps(a: Box, b: Box) -> bool:
+    """Whether boxes ``a`` and ``b`` (x0, y0, x1, y1) share any point, edges included."""
+    return a[0] <= b[2] and b[0] <= a[2] and a[1] <= b[3] and b[1] <= a[3]
+
+
 def points_in_box(x: NDArray[Any], y: NDArray[Any], box: Box, *, closed: bool = True) -> NDArray[np.bool_]:
     """Which of the points (``x``, ``y``) lie in ``box``: its east and north edges included where
     ``closed``, else left to the box beyond (a half-open box, so that boxes side by side share no

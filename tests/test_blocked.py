@@ -267,3 +267,43 @@ def test_the_providers_ground_class_blocked_is_the_one_piece_ground(scene_file, 
     assert r.exit_code != 0 and "classified ground" in r.output and len(r.output.strip().splitlines()) == 1
     with tdb.open(db) as d:
         assert "bare" not in [v.name for v in d.versions()] and "blocks" in [v.name for v in d.versions()]
+
+
+def test_buffered_tiles_hold_each_point_once(scene_file, tmp_path):
+    # tiles delivered with a 20 m buffer: the strip between them is in both files
+    cloud = read(scene_file)
+    x = cloud.xyz[:, 0]
+    x0 = x.min()
+    west, east = x < x0 + 110, x >= x0 + 90
+    for name, part in (("w.laz", west), ("e.laz", east)):
+        write_las(tmp_path / name, cloud.take(np.flatnonzero(part)))
+    twice = int((west & east).sum())
+    catalog = open_catalog(tmp_path)
+    assert twice > 1000 and catalog.points == len(cloud) + twice  # the headers count the strip twice
+    box = (x0 + 80, cloud.xyz[:, 1].min(), x0 + 120, cloud.xyz[:, 1].min() + 50)
+    inside = (x >= box[0]) & (x <= box[2]) & (cloud.xyz[:, 1] >= box[1]) & (cloud.xyz[:, 1] <= box[3])
+    got = catalog.read(box)
+    assert len(got) == int(inside.sum())
+    mm = [np.unique(np.round(xyz * 1000).astype(np.int64), axis=0) for xyz in (got.xyz, cloud.xyz[inside])]
+    np.testing.assert_array_equal(*mm)
+    db = tdb.open(tmp_path / "c.tdb", create=True)
+    v = ingest_blocked(str(tmp_path / "*.laz"), db, version="cat", blocking=Blocking(block=256, workers=1))
+    assert v.stats.points == len(cloud)
+    assert v.params["overlap_points_dropped"] == twice
+
+
+def test_overlapping_tiles_keep_their_own_distinct_points():
+    from ingest.overlaps import SharedPoints
+    from ingest.readers import RECORD
+
+    rng = np.random.default_rng(4)
+    a = np.zeros(400, RECORD)
+    a["x"], a["y"], a["z"], a["r"] = rng.uniform(0, 100, 400), rng.uniform(0, 100, 400), rng.normal(size=400), 1
+    b = a[a["x"] > 60].copy()  # the second tile repeats the first one's east strip ...
+    b["z"][::2] += 0.5  # ... but half its points are other returns at the same place
+    b["r"][1::4] = 2  # and some are other returns of the same pulse
+    shared = SharedPoints([(0, 0, 100, 100), (60, 0, 160, 100)])
+    assert len(shared(0, a)) == len(a)
+    kept = shared(1, b)
+    same = (np.arange(len(b)) % 2 == 1) & (np.arange(len(b)) % 4 != 1)
+    assert shared.dropped == int(same.sum()) and len(kept) == len(b) - int(same.sum())

@@ -161,6 +161,9 @@ def command(
         f"version {v.name!r} in {db_path}: {r.tiles.get(2, 0):,} tiles of 2 m, {r.kept_points:,} points kept "
         f"of {r.dense_posts:,} posts ({r.reduction_pct} % removed, RMSE {r.rmse_m} m)"
     )
+    twice = v.params.get("overlap_points_dropped")
+    if twice:
+        click.echo(f"note: {twice:,} points were held by two overlapping tiles; each was kept once", err=True)
     user = v.stats.kept_user_classes
     if user:
         found = ", ".join(f"{n:,} of class {c}" for c, n in user.items())
