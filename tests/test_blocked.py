@@ -290,6 +290,12 @@ def test_buffered_tiles_hold_each_point_once(scene_file, tmp_path):
     v = ingest_blocked(str(tmp_path / "*.laz"), db, version="cat", blocking=Blocking(block=256, workers=1))
     assert v.stats.points == len(cloud)
     assert v.params["overlap_points_dropped"] == twice
+    from click.testing import CliRunner
+
+    from tdb.cli import main
+
+    r = CliRunner().invoke(main, ["info", str(tmp_path / "c.tdb")])
+    assert r.exit_code == 0 and f"held twice, kept once: {twice:,}" in r.output
 
 
 def test_overlapping_tiles_keep_their_own_distinct_points():

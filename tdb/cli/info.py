@@ -100,3 +100,6 @@ def _database_info(path: Path | str, as_json: bool) -> None:
         if "exclude_classes" in v.params:  # versions from before the option have no record
             classes = ",".join(map(str, v.params["exclude_classes"])) or "none"
             click.echo(f"    excluded classes {classes}: {s.excluded_points:,} of {s.points:,} points")
+        twice = v.params.get("overlap_points_dropped")
+        if twice:
+            click.echo(f"    points overlapping tiles held twice, kept once: {twice:,}")
