@@ -408,6 +408,34 @@ def _seconds(run: dict[str, Any]) -> str:
     return f"{run['seconds']:.1f} ({', '.join(f'{t:.1f}' for t in every)})"
 
 
+def buffered_section(out: list[str]) -> None:
+    doc = _load("buffered_tiles")
+    if not doc:
+        return
+    pts, kept, trees, secs = doc["points"], doc["kept_points"], doc["trees"], doc["seconds"]
+    same = " / ".join(f"{v:.2f} %" for v in doc["same_tiles_pct"].values())
+    out += [
+        "## A survey delivered as buffered tiles",
+        "",
+        f"`python -m benchmarks.buffered_tiles`: `{doc['file']}` cut into 2 × 2 tiles, each reaching "
+        f"{doc['buffer_m']:g} m into its neighbours, against the file itself; both ingested block by block "
+        f"({doc['block_m']:.0f} m). Machine: {_machine(doc)}.",
+        "",
+        "| | the file | the tiles |",
+        "|---|---|---|",
+        f"| points in the input | {pts['file']:,} | {doc['points_in_tiles']:,} |",
+        f"| points the version counts | {pts['file']:,} | {pts['tiles']:,} ({doc['dropped']:,} held twice, "
+        "kept once) |",
+        f"| kept points | {kept['file']:,} | {kept['tiles']:,} |",
+        f"| trees | {trees['file']:,} | {trees['tiles']:,} |",
+        f"| seconds | {secs['file']:.1f} | {secs['tiles']:.1f} |",
+        "",
+        f"Tiles with the same category at 2 / 4 / 8 / 16 m: {same}; kept points the same: "
+        f"**{'yes' if doc['kept_points_identical'] else 'NO'}**.",
+        "",
+    ]
+
+
 def dask_section(out: list[str]) -> None:
     doc = _load("dask_cluster")
     if not doc:
@@ -926,6 +954,7 @@ def main() -> None:
         large_area_section,
         big_db_section,
         dask_section,
+        buffered_section,
         copc_section,
     )
     for section in sections:

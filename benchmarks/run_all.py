@@ -27,6 +27,7 @@ MODULES = (
     "coregister_peers",
     "copc_read",
     "dask_cluster",
+    "buffered_tiles",
     "objects_cv",
     "objects_speed",
 )
