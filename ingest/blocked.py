@@ -68,7 +68,7 @@ from ingest.pipeline import IngestOptions, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
 from ingest.readers import RECORD, from_records, in_box, iter_records
 from ingest.spool import Spool
-from tdb.bbox import check_bbox, clip_bbox, overlaps, points_in_box
+from tdb.bbox import boxes_meeting, check_bbox, clip_bbox, overlaps, points_in_box
 from tdb.categories import NO_DATA
 from tdb.classes import excluded
 from tdb.crs import as_crs
@@ -324,7 +324,7 @@ def _scatter(
             seen += int(use.sum())
             cells.append(np.unique(tile_key(*(np.floor(rec[a][use] / DENSITY_BLOCK) for a in "xy"))))
             squares.update(square_counts(rec["x"][use], rec["y"][use]))
-            for k in _touched(grown, f.bounds):
+            for k in boxes_meeting(grown, f.bounds):
                 if k in skip:
                     continue
                 inside = in_box(rec, tuple(grown[k]))
@@ -339,12 +339,6 @@ def _scatter(
             report("reading", done, total)
     occupied = len(np.unique(np.concatenate(cells))) * DENSITY_BLOCK**2 if cells else 0.0
     return Scattered(files, seen / occupied if occupied else 0.0, own, dict(squares), shared.dropped)
-
-
-def _touched(grown: NDArray[np.float64], box: Box) -> NDArray[np.intp]:
-    return np.flatnonzero(
-        (grown[:, 0] <= box[2]) & (grown[:, 2] >= box[0]) & (grown[:, 1] <= box[3]) & (grown[:, 3] >= box[1])
-    )
 
 
 def _jobs(blocks: list[_Block], files: list[Path], o: IngestOptions, crs: Any, *, skip: set[int]) -> list[Job]:

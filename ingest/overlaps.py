@@ -17,38 +17,52 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ingest.readers import Box, in_box
-from tdb.bbox import overlaps
+from tdb.bbox import boxes_meeting
 
 KEY_M = 1e-3  # positions equal to this are one point: tiles written with other scales still agree
 
 
 class SharedPoints:
     """Reads a catalog's tiles in order, as chunks, and drops from each chunk the points an
-    earlier tile holds (:meth:`__call__`); ``dropped`` counts them."""
+    earlier tile holds (:meth:`__call__`); ``dropped`` counts them. A tile's remembered points are
+    let go once the last tile that overlaps it has been read."""
 
     def __init__(self, bounds: Sequence[Box]) -> None:
-        self.bounds: list[Box] = [(float(b[0]), float(b[1]), float(b[2]), float(b[3])) for b in bounds]
-        self._held: list[list[NDArray[Any]]] = [[] for _ in self.bounds]
+        self.bounds = np.array(bounds, np.float64).reshape(-1, 4)
+        self._held: dict[int, list[NDArray[Any]]] = {}
+        self._last = [int(self._overlapping(k).max(initial=k)) for k in range(len(self.bounds))]
         self.dropped = 0
 
     def __call__(self, tile: int, rec: NDArray[Any]) -> NDArray[Any]:
         """``rec``, a chunk of tile ``tile``'s points (``RECORD`` rows), without those an earlier
         tile holds; its points that a later tile may hold again are remembered."""
+        for j in [j for j in self._held if self._last[j] < tile]:
+            del self._held[j]
+        near = self._overlapping(tile)
         twice = np.zeros(len(rec), bool)
-        for j in range(tile):
-            if self._held[j] and overlaps(self.bounds[j], self.bounds[tile]):
-                inside = np.flatnonzero(in_box(rec, self.bounds[j]))
+        for j in near[near < tile]:
+            if int(j) in self._held:
+                inside = np.flatnonzero(in_box(rec, self._box(j)))
                 if len(inside):
-                    twice[inside[np.isin(_keys(rec[inside]), self._keys_of(j))]] = True
+                    twice[inside[np.isin(_keys(rec[inside]), self._keys_of(int(j)))]] = True
         if twice.any():
             rec = rec[~twice]
             self.dropped += int(twice.sum())
-        later = [b for b in self.bounds[tile + 1 :] if overlaps(self.bounds[tile], b)]
-        if later and len(rec):
-            shared = np.logical_or.reduce([in_box(rec, b) for b in later])
+        later = near[near > tile]
+        if len(later) and len(rec):
+            shared = np.logical_or.reduce([in_box(rec, self._box(j)) for j in later])
             if shared.any():
-                self._held[tile].append(_keys(rec[shared]))
+                self._held.setdefault(tile, []).append(_keys(rec[shared]))
         return rec
+
+    def _overlapping(self, tile: int) -> NDArray[np.intp]:
+        """The other tiles whose bounds meet ``tile``'s (edges included)."""
+        meet = boxes_meeting(self.bounds, self._box(tile))
+        return meet[meet != tile]
+
+    def _box(self, tile: Any) -> Box:
+        x0, y0, x1, y1 = self.bounds[int(tile)].tolist()
+        return (x0, y0, x1, y1)
 
     def _keys_of(self, tile: int) -> NDArray[Any]:
         held = self._held[tile]

@@ -69,6 +69,13 @@ def overlaps(a: Box, b: Box) -> bool:
     return a[0] <= b[2] and b[0] <= a[2] and a[1] <= b[3] and b[1] <= a[3]
 
 
+def boxes_meeting(boxes: NDArray[np.float64], box: Box) -> NDArray[np.intp]:
+    """The indices of the rows of ``boxes`` (N, 4: x0, y0, x1, y1) that share a point with
+    ``box``, edges included."""
+    b = boxes
+    return np.flatnonzero((b[:, 0] <= box[2]) & (b[:, 2] >= box[0]) & (b[:, 1] <= box[3]) & (b[:, 3] >= box[1]))
+
+
 def points_in_box(x: NDArray[Any], y: NDArray[Any], box: Box, *, closed: bool = True) -> NDArray[np.bool_]:
     """Which of the points (``x``, ``y``) lie in ``box``: its east and north edges included where
     ``closed``, else left to the box beyond (a half-open box, so that boxes side by side share no

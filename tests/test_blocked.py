@@ -313,3 +313,39 @@ def test_overlapping_tiles_keep_their_own_distinct_points():
     kept = shared(1, b)
     same = (np.arange(len(b)) % 2 == 1) & (np.arange(len(b)) % 4 != 1)
     assert shared.dropped == int(same.sum()) and len(kept) == len(b) - int(same.sum())
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    tiles=st.integers(1, 4),
+    buffer=st.floats(0.0, 30.0),
+    chunk=st.integers(50, 2000),
+)
+def test_buffered_tilings_in_any_order_give_each_point_once(seed, tiles, buffer, chunk):
+    from ingest.overlaps import SharedPoints
+    from ingest.readers import RECORD
+
+    rng = np.random.default_rng(seed)
+    points = np.zeros(3000, RECORD)
+    points["x"], points["y"] = rng.uniform(0, 300, 3000), rng.uniform(0, 300, 3000)
+    points["z"], points["r"] = rng.normal(size=3000), 1
+    side = 300 / tiles
+    parts = []
+    for i in range(tiles):
+        for j in range(tiles):
+            x0, y0 = i * side - buffer, j * side - buffer
+            inside = (
+                (points["x"] >= x0)
+                & (points["x"] < x0 + side + 2 * buffer)
+                & (points["y"] >= y0)
+                & (points["y"] < y0 + side + 2 * buffer)
+            )
+            parts.append(points[inside])
+    parts = [parts[k] for k in rng.permutation(len(parts))]
+    shared = SharedPoints([(p["x"].min(), p["y"].min(), p["x"].max(), p["y"].max()) for p in parts])
+    kept = np.concatenate(
+        [shared(k, p[s : s + chunk]) for k, p in enumerate(parts) for s in range(0, len(p), chunk)]
+    )
+    assert len(kept) == len(points) and shared.dropped == sum(map(len, parts)) - len(points)
+    np.testing.assert_array_equal(np.sort(kept["z"]), np.sort(points["z"]))
