@@ -56,7 +56,7 @@ from numpy.typing import NDArray
 
 from ingest.block_size import block_side
 from ingest.block_totals import BlockResult, Totals
-from ingest.catalog import Box, Catalog, is_catalog, open_catalog
+from ingest.catalog import Box, Catalog, CatalogFile, is_catalog, open_catalog
 from ingest.ground import classify_ground
 from ingest.ground.outliers import DENSITY_BLOCK
 from ingest.ground.tiling import available_cores, one_blas_thread_here
@@ -73,7 +73,7 @@ from tdb.categories import NO_DATA
 from tdb.classes import excluded
 from tdb.crs import as_crs
 from tdb.database import Database, Version, VersionInfo, check_version_name
-from tdb.errors import CRSError, InputError, Remedy, TdbIOError, TdbWarning, VersionExistsError
+from tdb.errors import CRSError, FormatError, InputError, Remedy, TdbIOError, TdbWarning, VersionExistsError
 from tdb.memory import peak_mib
 from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
@@ -309,6 +309,8 @@ def _scatter(
     files = [tmp / f"block{k}.bin" for k in range(len(blocks))]
     own = np.zeros(len(blocks), np.int64)
     grown = np.array([blk.grown for blk in blocks])
+    cores = np.array([blk.core for blk in blocks])
+    modelled: Box = (*cores[:, :2].min(axis=0).tolist(), *cores[:, 2:].max(axis=0).tolist())
     done, total = 0, catalog.points
     seen, cells = 0, []
     squares: Counter[tuple[int, int]] = Counter()
@@ -320,6 +322,8 @@ def _scatter(
         for chunk in iter_records(f.path, chunk_size=CHUNK, box=box):
             done += len(chunk)
             rec = shared(i, chunk)
+            if box is None:
+                _check_in_header_bounds(rec, f, modelled)
             use = ~excluded(rec["c"], exclude)
             seen += int(use.sum())
             cells.append(np.unique(tile_key(*(np.floor(rec[a][use] / DENSITY_BLOCK) for a in "xy"))))
@@ -339,6 +343,19 @@ def _scatter(
             report("reading", done, total)
     occupied = len(np.unique(np.concatenate(cells))) * DENSITY_BLOCK**2 if cells else 0.0
     return Scattered(files, seen / occupied if occupied else 0.0, own, dict(squares), shared.dropped)
+
+
+def _check_in_header_bounds(rec: NDArray[Any], f: CatalogFile, modelled: Box) -> None:
+    """Raise where points of ``f`` lie beyond the blocks, which are laid over the bounds the
+    files' headers declare: a point there would belong to no block and be lost."""
+    beyond = ~in_box(rec, modelled)
+    if beyond.any():
+        x, y = rec["x"][beyond], rec["y"][beyond]
+        raise FormatError(
+            f"{f.path}: {int(beyond.sum()):,} points lie beyond the bounds its header declares "
+            f"(x {f.bounds[0]:.2f} .. {f.bounds[2]:.2f}, y {f.bounds[1]:.2f} .. {f.bounds[3]:.2f}; "
+            f"one at {x[0]:.2f}, {y[0]:.2f}); rewrite the file so that its header holds its points' bounds"
+        )
 
 
 def _jobs(blocks: list[_Block], files: list[Path], o: IngestOptions, crs: Any, *, skip: set[int]) -> list[Job]:

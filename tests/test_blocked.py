@@ -349,3 +349,21 @@ def test_buffered_tilings_in_any_order_give_each_point_once(seed, tiles, buffer,
     )
     assert len(kept) == len(points) and shared.dropped == sum(map(len, parts)) - len(points)
     np.testing.assert_array_equal(np.sort(kept["z"]), np.sort(points["z"]))
+
+
+def test_points_beyond_their_header_bounds_are_refused_not_lost(scene_file, tmp_path):
+    import struct
+
+    from tdb.errors import FormatError
+
+    path = tmp_path / "bad.las"
+    write_las(path, read(scene_file))
+    with open(path, "r+b") as fh:  # LAS header: max x at byte 179, min x at 187 (doubles)
+        fh.seek(179)
+        max_x, min_x = struct.unpack("<2d", fh.read(16))
+        fh.seek(179)
+        fh.write(struct.pack("<d", min_x + 0.5 * (max_x - min_x)))  # as if the header held half the file
+    db = tdb.open(tmp_path / "c.tdb", create=True)
+    with pytest.raises(FormatError, match="beyond the bounds its header declares"):
+        ingest_blocked(path, db, version="v", blocking=Blocking(block=64, workers=1))
+    assert db.versions() == []  # nothing stored
