@@ -319,6 +319,7 @@ def _scatter(
     for i, f in enumerate(catalog.files):
         if box is not None and not overlaps(f.bounds, box):
             continue
+        reached = [k for k in boxes_meeting(grown, f.bounds) if k not in skip]
         for chunk in iter_records(f.path, chunk_size=CHUNK, box=box):
             done += len(chunk)
             rec = shared(i, chunk)
@@ -328,9 +329,7 @@ def _scatter(
             seen += int(use.sum())
             cells.append(np.unique(tile_key(*(np.floor(rec[a][use] / DENSITY_BLOCK) for a in "xy"))))
             squares.update(square_counts(rec["x"][use], rec["y"][use]))
-            for k in boxes_meeting(grown, f.bounds):
-                if k in skip:
-                    continue
+            for k in reached:
                 inside = in_box(rec, tuple(grown[k]))
                 if inside.any():
                     part = rec[inside]

@@ -29,14 +29,14 @@ class SharedPoints:
 
     def __init__(self, bounds: Sequence[Box]) -> None:
         self.bounds = np.array(bounds, np.float64).reshape(-1, 4)
+        self._near: dict[int, NDArray[np.intp]] = {}
         self._held: dict[int, list[NDArray[Any]]] = {}
-        self._last = [int(self._overlapping(k).max(initial=k)) for k in range(len(self.bounds))]
         self.dropped = 0
 
     def __call__(self, tile: int, rec: NDArray[Any]) -> NDArray[Any]:
         """``rec``, a chunk of tile ``tile``'s points (``RECORD`` rows), without those an earlier
         tile holds; its points that a later tile may hold again are remembered."""
-        for j in [j for j in self._held if self._last[j] < tile]:
+        for j in [j for j in self._held if self._overlapping(j).max(initial=j) < tile]:
             del self._held[j]
         near = self._overlapping(tile)
         twice = np.zeros(len(rec), bool)
@@ -56,9 +56,11 @@ class SharedPoints:
         return rec
 
     def _overlapping(self, tile: int) -> NDArray[np.intp]:
-        """The other tiles whose bounds meet ``tile``'s (edges included)."""
-        meet = boxes_meeting(self.bounds, self._box(tile))
-        return meet[meet != tile]
+        """The other tiles whose bounds meet ``tile``'s (edges included), found once per tile."""
+        if tile not in self._near:
+            meet = boxes_meeting(self.bounds, self._box(tile))
+            self._near[tile] = meet[meet != tile]
+        return self._near[tile]
 
     def _box(self, tile: Any) -> Box:
         x0, y0, x1, y1 = self.bounds[int(tile)].tolist()
