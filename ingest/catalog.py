@@ -18,12 +18,15 @@ from typing import Any
 import laspy
 import numpy as np
 
+from ingest.block_size import block_bytes
 from ingest.overlaps import SharedPoints
 from ingest.readers import RECORD, Box, from_records, iter_records
-from tdb.bbox import overlaps
+from tdb.bbox import box_area, overlaps
 from tdb.cloud import PointCloud
 from tdb.crs import describe
 from tdb.errors import CRSError, FormatError, InputError, TdbError, TdbIOError
+from tdb.memory import physical_bytes
+from tdb.units import units_of
 
 SUFFIXES = (".las", ".laz")
 
@@ -125,22 +128,40 @@ def open_catalog(source: str | os.PathLike[str] | Sequence[str | os.PathLike[str
 
 
 WHOLE_BYTES_PER_POINT = 2_000  # a whole ingest's peak memory per point read (sparse surveys, the most)
+METRES_PER_DEGREE = 111_320.0  # along the equator or a meridian: enough for an estimate of memory
 
 
 def too_large_to_model_whole(path: str | os.PathLike[str], *, memory: int | None = None) -> bool:
-    """Whether a LAS/LAZ file holds more points than a whole ingest models in half of ``memory``
-    bytes (default: this machine's), at :data:`WHOLE_BYTES_PER_POINT` each; such a file goes
-    block by block. False for a file whose header gives no count (a text file)."""
+    """Whether a LAS/LAZ file is too large for a whole ingest in half of ``memory`` bytes
+    (default: this machine's): by its points, at :data:`WHOLE_BYTES_PER_POINT` each, or by the
+    extent of its header's bounds, whose grids a whole ingest lays out filled or not
+    (:func:`ingest.block_size.block_bytes`). Such a file goes block by block, where only the
+    blocks that hold points are modelled. False for a file whose header gives no count (a text file)."""
     p = Path(path)
     if p.suffix.lower() not in SUFFIXES or not p.is_file():
         return False
     try:
-        points = open_catalog([p]).points
+        catalog = open_catalog([p])
     except TdbError:
         return False  # the reader says what is wrong, as for any file
     if memory is None:
-        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    return points * WHOLE_BYTES_PER_POINT > memory // 2
+        memory = physical_bytes()
+    points = catalog.points
+    need = max(points * WHOLE_BYTES_PER_POINT, block_bytes(extent_m2(catalog), points))
+    return bool(memory) and need > memory // 2
+
+
+def extent_m2(catalog: Catalog) -> float:
+    """The area (m²) of a catalog's header bounds, converted from its CRS's units (a geographic
+    CRS's degrees roughly, at the bounds' middle latitude); as metres where it names no CRS."""
+    x0, y0, x1, y1 = catalog.bounds
+    area = box_area((x0, y0, x1, y1))
+    units = units_of(catalog.crs)
+    if units is None:
+        return area
+    if units.geographic:
+        return area * METRES_PER_DEGREE**2 * abs(np.cos(np.radians((y0 + y1) / 2)))
+    return area * units.horizontal_factor**2
 
 
 def is_catalog(source: Any) -> bool:

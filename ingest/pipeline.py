@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ingest.block_size import block_bytes, check_fits
 from ingest.dtm import DEFAULT_RESOLUTION, dense_model
 from ingest.evidence import tile_evidence
 from ingest.ground import classify_ground
@@ -19,7 +20,7 @@ from ingest.noise import QUIET, fullest_square, ground_noises, pilot_threshold, 
 from ingest.objects import Objects, find_objects
 from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
-from tdb.bbox import Box, points_in_box
+from tdb.bbox import Box, box_area, points_in_box
 from tdb.classes import NOISE, excluded, parse_classes, user_classes
 from tdb.cloud import PointCloud
 from tdb.database import Database, Version, VersionInfo, check_version_name
@@ -110,6 +111,13 @@ def survey(
 
     ``progress`` (:mod:`tdb.progress`) is told each step as it starts, and the ground filter's
     tiles as they finish. ``options.crs`` and ``options.labels`` are for reading: see :func:`ingest`.
+
+    Raises
+    ------
+    InputError
+        Before any work, where modelling the cloud's extent whole needs more memory than the
+        machine has (:func:`ingest.block_size.check_fits`): model it block by block
+        (:func:`ingest.blocked.ingest_blocked`).
     """
     o = options or IngestOptions()
     report = or_silent(progress)
@@ -117,6 +125,7 @@ def survey(
     metric = to_metres(cloud, assume_metres=o.assume_metres)
     b = metric.bounds
     extent = o.extent if o.extent is not None else (b[0], b[1], b[3], b[4])
+    check_fits(block_bytes(box_area(extent), len(metric)), what=metric.source, area=box_area(extent))
     ground = classify_ground(
         metric, method=o.method, progress=report, exclude=o.exclude, density=o.density, extent=extent
     )
@@ -163,6 +172,8 @@ def ingest(
     ------
     VersionExistsError
         If ``version`` exists and ``replace`` is false (checked before any work).
+    InputError
+        Where the survey's extent is too large to model whole (see :func:`survey`).
     """
     o = options or IngestOptions()
     check_version_name(version)

@@ -64,6 +64,12 @@ def column_range(points: NDArray[Any]) -> tuple[NDArray[np.float64], NDArray[np.
     return lo, hi
 
 
+def box_area(box: Box) -> float:
+    """Area of a box (x0, y0, x1, y1), in its units squared; 0 where it is empty."""
+    x0, y0, x1, y1 = box
+    return max(x1 - x0, 0.0) * max(y1 - y0, 0.0)
+
+
 def overlaps(a: Box, b: Box) -> bool:
     """Whether boxes ``a`` and ``b`` (x0, y0, x1, y1) share any point, edges included."""
     return a[0] <= b[2] and b[0] <= a[2] and a[1] <= b[3] and b[1] <= a[3]

@@ -15,6 +15,7 @@ class Remedy(str, Enum):
 
     REPLACE = "replace"  # write over the existing version
     GIVE_CRS = "give_crs"  # name the coordinate system, or declare the coordinates metres
+    BLOCKS = "blocks"  # model the survey block by block
 
 
 class TdbError(Exception):

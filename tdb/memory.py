@@ -22,3 +22,13 @@ def workers_peak_mib(told: float | None) -> float:
     ``worker_peak_mib``; they may be no children of this process), else the largest of the child
     processes waited for."""
     return told or peak_mib(children=True)
+
+
+def physical_bytes() -> int:
+    """This machine's physical memory in bytes; 0 where the system does not say."""
+    import os
+
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, ValueError, OSError):  # no sysconf, or no such name (Windows, odd libcs)
+        return 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import pytest
 from hypothesis import settings
@@ -61,3 +62,23 @@ def digest(path: Path) -> str:
     import hashlib
 
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def two_patches(cloud: Any, gap: float) -> Any:
+    """``cloud`` and a copy of it ``gap`` m to the north-east, as one cloud: few points over a
+    wide box, as a corridor survey or two sites in one file spread them."""
+    import dataclasses
+
+    import numpy as np
+
+    def twice(a: Any) -> Any:
+        return np.r_[a, a]
+
+    return dataclasses.replace(
+        cloud,
+        xyz=np.r_[cloud.xyz, cloud.xyz + np.array([gap, gap, 0.0])],
+        classification=twice(cloud.classification),
+        return_number=twice(cloud.return_number),
+        number_of_returns=twice(cloud.number_of_returns),
+        intensity=None,
+    )

@@ -11,6 +11,7 @@ import tdb
 from ingest.pipeline import IngestOptions, ingest
 from tdb.cli import main
 from tdb.errors import InputError, VersionExistsError
+from tests.conftest import two_patches
 
 
 @pytest.mark.parametrize("resolution", [3.0, 0.3, 0.0, -0.5, math.nan, math.inf, 0.7])
@@ -84,3 +85,38 @@ def test_info_as_json_holds_no_nan(tmp_path, small_cloud):
     assert r.exit_code == 0, r.output
     doc = json.loads(r.output, parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
     assert doc["versions"][0]["stats"]["noise_m"] is None
+
+
+def test_an_extent_the_machine_cannot_hold_whole_is_refused_before_any_work(tmp_path, small_cloud, monkeypatch):
+    """Two patches 5 km apart, on a machine of 1 GiB: the whole model's grids would span the box
+    between them (about 11 GiB), so it is refused at once, and nothing is stored, rather than the
+    process being killed by the system once the memory is gone."""
+    from ingest import block_size
+    from ingest.ground import classify_ground
+    from tdb.errors import Remedy
+
+    monkeypatch.setattr(block_size, "physical_bytes", lambda: 2**30)
+    wide = two_patches(small_cloud, 5_000.0)
+    db = tdb.open(tmp_path / "w.tdb", create=True)
+    with pytest.raises(InputError, match="block by block") as info:
+        ingest(wide, db, version="v")
+    assert info.value.remedy is Remedy.BLOCKS
+    assert db.versions() == []
+    with pytest.raises(InputError, match="block by block"):
+        classify_ground(wide)
+    # the provider's own classes need no grid; the patches alone fit
+    assert classify_ground(wide, method="classified").sum() == 2 * (small_cloud.classification == 2).sum()
+    assert classify_ground(small_cloud).any()
+
+
+def test_the_ground_command_says_so_in_one_line(tmp_path, small_cloud, monkeypatch):
+    from ingest import block_size
+    from ingest.readers import write_las
+
+    monkeypatch.setattr(block_size, "physical_bytes", lambda: 2**30)
+    src = tmp_path / "wide.laz"
+    write_las(src, two_patches(small_cloud, 5_000.0))
+    r = CliRunner().invoke(main, ["ground", str(src), "--out", str(tmp_path / "g.laz")])
+    assert r.exit_code == 1
+    assert r.output.count("\n") == 1 and "block by block" in r.output and "--block" in r.output
+    assert not (tmp_path / "g.laz").exists()

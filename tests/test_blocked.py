@@ -15,6 +15,7 @@ from ingest.readers import read, write_las
 from ingest.synth import make_scene, write_scene
 from tdb.errors import CRSError, InputError, TdbIOError
 from tdb.tiles import LEVELS
+from tests.conftest import two_patches
 
 
 def _codes(db, version, level):
@@ -367,3 +368,48 @@ def test_points_beyond_their_header_bounds_are_refused_not_lost(scene_file, tmp_
     with pytest.raises(FormatError, match="beyond the bounds its header declares"):
         ingest_blocked(path, db, version="v", blocking=Blocking(block=64, workers=1))
     assert db.versions() == []  # nothing stored
+
+
+def test_a_file_spread_over_a_wide_extent_goes_block_by_block(small_cloud, tmp_path, monkeypatch):
+    """Few points over a wide box (two patches 3 km apart, as a corridor survey spreads): a whole
+    ingest's grids span the box, so the extent decides as much as the count. The command line
+    ingests such a file block by block, where only the blocks holding points are modelled."""
+    from click.testing import CliRunner
+
+    import ingest.catalog
+    from ingest.catalog import too_large_to_model_whole
+    from tdb.cli import main
+
+    wide, near = tmp_path / "wide.laz", tmp_path / "near.laz"
+    write_las(wide, two_patches(small_cloud, 3_000.0))
+    write_las(near, two_patches(small_cloud, 100.0))
+    memory = 4 * 2**30
+    assert too_large_to_model_whole(wide, memory=memory)  # about 4 GiB of grids for 9 km²
+    assert not too_large_to_model_whole(near, memory=memory)
+    monkeypatch.setattr(ingest.catalog, "physical_bytes", lambda: memory)
+    db = tmp_path / "w.tdb"
+    r = CliRunner().invoke(main, ["ingest", str(wide), "--db", str(db), "--version", "v"])
+    assert r.exit_code == 0, r.output
+    assert "block by block" in r.output
+    with tdb.open(db) as d:
+        assert d.version("v").stats.points == 2 * len(small_cloud)
+        assert d.version("v").params["blocks"] <= 4  # a block or two at each patch, none between
+
+
+def test_the_extent_is_measured_in_metres(small_cloud, tmp_path):
+    """A header's bounds in US survey feet cover a tenth of the square metres they would as metres."""
+    import dataclasses
+
+    from pyproj import CRS
+
+    from ingest.catalog import extent_m2, too_large_to_model_whole
+
+    feet = dataclasses.replace(two_patches(small_cloud, 30_000.0), crs=CRS.from_epsg(2903))
+    metres = dataclasses.replace(feet, crs=CRS.from_epsg(32633))
+    write_las(tmp_path / "ft.laz", feet)
+    write_las(tmp_path / "m.laz", metres)
+    ft, m = (extent_m2(open_catalog([tmp_path / n])) for n in ("ft.laz", "m.laz"))
+    assert ft == pytest.approx(m * (1200 / 3937) ** 2, rel=1e-6)
+    memory = 100 * 2**30  # 37 GB of grids over the feet's 84 km², 400 GB over the metres' 900 km²
+    assert not too_large_to_model_whole(tmp_path / "ft.laz", memory=memory)
+    assert too_large_to_model_whole(tmp_path / "m.laz", memory=memory)

@@ -8,11 +8,13 @@ from collections.abc import Iterable
 import numpy as np
 from numpy.typing import NDArray
 
+from ingest.block_size import check_fits, ground_bytes
 from ingest.ground.auto import AutoParams, auto_ground
 from ingest.ground.contour import ContourParams, active_contour
 from ingest.ground.outliers import deep_pits, low_outliers
 from ingest.ground.sohn import SohnParams, sohn_dowman
 from ingest.ground.tiling import available_cores, by_tiles
+from tdb.bbox import box_area
 from tdb.classes import NOISE, excluded
 from tdb.cloud import GROUND, PointCloud, check_spread, from_arrays
 from tdb.errors import InputError
@@ -65,10 +67,15 @@ def classify_ground(
     DegenerateInputError
         For fewer than three points, or points spanning no area (once ``exclude`` is applied).
     InputError
-        For ``classified``, where no point the filter sees is classified ground.
+        For ``classified``, where no point the filter sees is classified ground; or where
+        filtering the extent whole needs more memory than the machine has.
     """
     m = parse(GroundMethod, method)
     cloud = points if isinstance(points, PointCloud) else from_arrays(*np.asarray(points, float).T, validate=False)
+    if m is not GroundMethod.CLASSIFIED:
+        b = cloud.bounds
+        area = box_area(extent if extent is not None else (b[0], b[1], b[3], b[4]))
+        check_fits(ground_bytes(area, len(cloud)), what=cloud.source, area=area)
     drop = excluded(cloud.classification, exclude)
     if not drop.any():
         check_spread(cloud)

@@ -22,6 +22,7 @@ EXIT_USAGE = 2  # as click's own
 REMEDIES = {
     Remedy.REPLACE: "use --replace to write over it",
     Remedy.GIVE_CRS: "give one with --crs EPSG:XXXX, or pass --assume-metres",
+    Remedy.BLOCKS: "tdb ingest does so with --block",
 }
 
 

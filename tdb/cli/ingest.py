@@ -43,8 +43,8 @@ def _summary(
     type=float,
     help="Ingest block by block, blocks of this many metres (a multiple of 16), in parallel: for surveys "
     "too large to model whole. A directory or a glob of tiles is always ingested so, and a file whose "
-    "header counts more points than half this machine's memory holds in a whole ingest [default: the "
-    "largest a worker models in 1.5 GB at the survey's density, at most 512].",
+    "header's points or extent need more than half this machine's memory in a whole ingest [default: "
+    "the largest a worker models in 1.5 GB at the survey's density, at most 512].",
 )
 @click.option("--workers", type=int, help="Ingest block by block in this many processes [default: one per core].")
 @click.option(
