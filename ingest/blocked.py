@@ -66,7 +66,7 @@ from ingest.objects.cover import SINGLE_RETURNS
 from ingest.overlaps import SharedPoints
 from ingest.pipeline import IngestOptions, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
-from ingest.readers import RECORD, from_records, in_box, iter_records
+from ingest.readers import RECORD, from_records, in_box
 from ingest.spool import Spool
 from tdb.bbox import boxes_meeting, check_bbox, clip_bbox, overlaps, points_in_box
 from tdb.categories import NO_DATA
@@ -158,7 +158,10 @@ def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and 
         raise VersionExistsError(f"{db.name}: version {version!r} exists", remedy=Remedy.REPLACE)
     report = or_silent(progress)
     catalog = open_catalog(source if is_catalog(source) else [Path(str(source))])
-    crs = as_crs(o.crs) if o.crs is not None else catalog.crs
+    if o.crs is not None:
+        catalog = dataclasses.replace(catalog, crs=as_crs(o.crs))
+    catalog = catalog.in_metres()
+    crs = catalog.crs
     _check_metric(crs)
     if b.block is None:
         b = dataclasses.replace(b, block=block_side(catalog.densest, buffer=b.buffer))
@@ -320,7 +323,7 @@ def _scatter(
         if box is not None and not overlaps(f.bounds, box):
             continue
         reached = [k for k in boxes_meeting(grown, f.bounds) if k not in skip]
-        for chunk in iter_records(f.path, chunk_size=CHUNK, box=box):
+        for chunk in catalog.records(f, chunk_size=CHUNK, box=box):
             done += len(chunk)
             rec = shared(i, chunk)
             if box is None:

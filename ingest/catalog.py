@@ -10,25 +10,27 @@ from __future__ import annotations
 
 import glob
 import os
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import laspy
 import numpy as np
+from numpy.typing import NDArray
 
 from ingest.block_size import block_bytes
 from ingest.overlaps import SharedPoints
-from ingest.readers import RECORD, Box, from_records, iter_records
+from ingest.readers import RECORD, Box, from_records, in_box, iter_records
 from tdb.bbox import box_area, overlaps
 from tdb.cloud import PointCloud
 from tdb.crs import describe
 from tdb.errors import CRSError, FormatError, InputError, TdbError, TdbIOError
 from tdb.memory import physical_bytes
-from tdb.units import units_of
+from tdb.units import units_of, with_metre_axes
 
 SUFFIXES = (".las", ".laz")
+CHUNK = 1_000_000  # points decoded at a time
 
 
 @dataclass(frozen=True)
@@ -42,10 +44,42 @@ class CatalogFile:
 
 @dataclass(frozen=True)
 class Catalog:
-    """The tiles of one survey and their shared coordinate system."""
+    """The tiles of one survey and their shared coordinate system.
+
+    ``scale`` is the metres per unit (horizontal, vertical) its points are read in: (1, 1) as the
+    files hold them; a catalog :meth:`in_metres` of files in feet reads them in metres."""
 
     files: tuple[CatalogFile, ...]
     crs: Any
+    scale: tuple[float, float] = (1.0, 1.0)
+
+    def in_metres(self) -> Catalog:
+        """The same tiles, read in metres where their coordinate system is projected in other
+        units (feet): bounds and points scaled exactly, the CRS the same with metre axes, as
+        :func:`tdb.units.to_metres` converts a cloud. A catalog in metres, with no CRS, or in
+        degrees (which need a projection, not a scale) is returned as it is."""
+        units = units_of(self.crs)
+        if units is None or units.metric or units.geographic:
+            return self
+        h, v = units.horizontal_factor, units.vertical_factor
+        x0, y0, x1, y1 = (np.array([f.bounds for f in self.files]) * h).T.tolist()
+        files = tuple(replace(f, bounds=b) for f, b in zip(self.files, zip(x0, y0, x1, y1)))
+        return Catalog(files, with_metre_axes(self.crs), (h, v))
+
+    def records(self, f: CatalogFile, *, chunk_size: int, box: Box | None = None) -> Iterator[NDArray[Any]]:
+        """The points of one of the catalog's files (in ``box``, edges included) as
+        :data:`ingest.readers.RECORD` arrays in the catalog's units, ``chunk_size`` at a time."""
+        h, v = self.scale
+        if (h, v) == (1.0, 1.0):
+            yield from iter_records(f.path, chunk_size=chunk_size, box=box)
+            return
+        # the box in the file's units, a unit wider, so that rounding loses no point on its edge
+        wide = None if box is None else (box[0] / h - 1, box[1] / h - 1, box[2] / h + 1, box[3] / h + 1)
+        for rec in iter_records(f.path, chunk_size=chunk_size, box=wide):
+            rec["x"] *= h
+            rec["y"] *= h
+            rec["z"] *= v
+            yield rec if box is None else rec[in_box(rec, box)]
 
     @property
     def bounds(self) -> Box:
@@ -75,7 +109,7 @@ class Catalog:
             shared(i, rec)
             for i, f in enumerate(self.files)
             if overlaps(f.bounds, box)
-            for rec in iter_records(f.path, box=box)
+            for rec in self.records(f, chunk_size=CHUNK, box=box)
         ]
         rec = np.concatenate(parts) if parts else np.zeros(0, RECORD)
         return from_records(rec, crs=self.crs, source=f"catalog of {len(self.files)} files")
@@ -152,16 +186,15 @@ def too_large_to_model_whole(path: str | os.PathLike[str], *, memory: int | None
 
 
 def extent_m2(catalog: Catalog) -> float:
-    """The area (m²) of a catalog's header bounds, converted from its CRS's units (a geographic
-    CRS's degrees roughly, at the bounds' middle latitude); as metres where it names no CRS."""
-    x0, y0, x1, y1 = catalog.bounds
+    """The area (m²) of a catalog's header bounds: converted from feet (:meth:`Catalog.in_metres`),
+    from degrees roughly (at the bounds' middle latitude); as metres where it names no CRS."""
+    metric = catalog.in_metres()
+    x0, y0, x1, y1 = metric.bounds
     area = box_area((x0, y0, x1, y1))
-    units = units_of(catalog.crs)
-    if units is None:
-        return area
-    if units.geographic:
+    units = units_of(metric.crs)
+    if units is not None and units.geographic:
         return area * METRES_PER_DEGREE**2 * abs(np.cos(np.radians((y0 + y1) / 2)))
-    return area * units.horizontal_factor**2
+    return area
 
 
 def is_catalog(source: Any) -> bool:

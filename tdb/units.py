@@ -19,7 +19,7 @@ from tdb.cloud import PointCloud
 from tdb.crs import as_crs, epsg_of
 from tdb.errors import CRSError, Remedy
 
-__all__ = ["METRES", "Units", "as_crs", "epsg_of", "to_metres", "units_of"]
+__all__ = ["METRES", "Units", "as_crs", "epsg_of", "to_metres", "units_of", "with_metre_axes"]
 
 
 @dataclass(frozen=True)
@@ -68,7 +68,7 @@ def units_of(crs: pyproj.CRS | None) -> Units | None:
     return Units(h[0], 1.0 if geographic else h[1], v[0], v[1], geographic)
 
 
-def _with_metre_axes(crs: pyproj.CRS) -> pyproj.CRS:
+def with_metre_axes(crs: pyproj.CRS) -> pyproj.CRS:
     """The same CRS with every linear axis in metres (projection parameters unchanged)."""
     doc = crs.to_json_dict()
     nodes = [doc, *doc.get("components", [])]
@@ -112,7 +112,7 @@ def to_metres(cloud: PointCloud, *, assume_metres: bool = False) -> PointCloud:
     xyz[:, :2] *= units.horizontal_factor
     xyz[:, 2] *= units.vertical_factor
     meta = dict(cloud.meta, converted_from=f"{units.horizontal}/{units.vertical}")
-    return replace(cloud, xyz=xyz, crs=_with_metre_axes(cloud.crs), meta=meta)
+    return replace(cloud, xyz=xyz, crs=with_metre_axes(cloud.crs), meta=meta)
 
 
 def _project_to_utm(cloud: PointCloud, units: Units) -> PointCloud:

@@ -183,16 +183,37 @@ def test_a_dense_survey_is_cut_into_blocks_a_worker_can_hold(scene_file, tmp_pat
     assert v.stats.points == open_catalog([scene_file]).points
 
 
-def test_blocks_need_metres(scene_file, tmp_path):
+def test_blocks_read_feet_in_metres(scene_file, tmp_path):
+    """A survey in US survey feet (State Plane deliveries) is modelled block by block in metres,
+    as a whole ingest converts it: the same tiles, kept points and CRS with metre axes. Degrees
+    need a projection, not a scale: refused."""
     import dataclasses
 
     from pyproj import CRS
 
     cloud = read(scene_file)
+    foot = 1200 / 3937
     feet = tmp_path / "feet.laz"
-    write_las(feet, dataclasses.replace(cloud, crs=CRS.from_epsg(2263)))  # NY Long Island, US feet
+    write_las(feet, dataclasses.replace(cloud, xyz=cloud.xyz / foot, crs=CRS.from_epsg(2263)))  # NY, US feet
+    db = tdb.open(tmp_path / "f.tdb", create=True)
+    whole = ingest(feet, db, version="whole")
+    blocks = ingest_blocked(feet, db, version="blocks", blocking=Blocking(block=96, buffer=64, workers=1))
+    assert blocks.params["blocks"] >= 4
+    assert blocks.stats.points == whole.stats.points == len(cloud)
+    assert blocks.stats.bounds == pytest.approx(whole.stats.bounds)
+    assert db.crs("blocks").equals(db.crs("whole"))
+    assert "metre" in db.crs("blocks").axis_info[0].unit_name
+    for level in LEVELS:
+        a, b = _codes(db, "whole", level), _codes(db, "blocks", level)
+        assert set(a) == set(b), level
+        assert np.mean([a[k] == b[k] for k in a]) >= 0.995, level
+    pa, pb = db.points("whole", level=2), db.points("blocks", level=2)
+    assert abs(len(pb[0]) - len(pa[0])) <= 0.02 * len(pa[0])
+    degrees = tmp_path / "degrees.laz"
+    lonlat = (cloud.xyz - cloud.xyz.min(axis=0)) * np.array([1e-5, 1e-5, 1.0]) + np.array([10.0, 50.0, 0.0])
+    write_las(degrees, dataclasses.replace(cloud, xyz=lonlat, crs=CRS.from_epsg(4326)))
     with pytest.raises(CRSError, match="metres"):
-        ingest_blocked(feet, tdb.open(tmp_path / "f.tdb", create=True), version="v")
+        ingest_blocked(degrees, tdb.open(tmp_path / "g.tdb", create=True), version="v")
 
 
 def test_blocks_modelled_on_a_dask_cluster_are_those_of_the_process_pool(tmp_path):
