@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ingest.block_lattice import Block, BlockLattice
 from ingest.block_size import block_side
 from ingest.block_totals import BlockResult, Totals
 from ingest.catalog import Box, Catalog, CatalogFile, is_catalog, open_catalog
@@ -68,7 +69,7 @@ from ingest.pipeline import IngestOptions, survey
 from ingest.pyramid import LevelTiles, TerrainModel, reduction_stats
 from ingest.readers import RECORD, from_records, in_box
 from ingest.spool import Spool
-from tdb.bbox import boxes_meeting, check_bbox, clip_bbox, overlaps, points_in_box
+from tdb.bbox import check_bbox, clip_bbox, overlaps, points_in_box
 from tdb.categories import NO_DATA
 from tdb.classes import excluded
 from tdb.crs import as_crs
@@ -110,19 +111,6 @@ class Blocking:
             raise InputError(f"a block's side must be a positive multiple of {coarsest} m, got {self.block}")
         if self.buffer < 0:
             raise InputError(f"a block's buffer cannot be negative, got {self.buffer}")
-
-
-@dataclass(frozen=True)
-class _Block:
-    """One block's square (x0, y0, x1, y1) and the box its points are read from; ``closed``: whether
-    its east and north edges are the survey's (its kept points there are its own); ``extent``: the
-    box its ground filter's grid covers, the read box within the survey's bounds (where the
-    whole survey's grid would end too)."""
-
-    core: Box
-    grown: Box
-    closed: tuple[bool, bool]
-    extent: Box
 
 
 def ingest_blocked(  # noqa: PLR0913 (the source, the database, the version and how)
@@ -213,7 +201,7 @@ def _resolved(
     o: IngestOptions,
     settings: dict[str, Any],
     sc: Scattered,
-    blocks: list[_Block],
+    blocks: BlockLattice,
     b: Blocking,
     crs: Any,
     report: Progress,
@@ -255,25 +243,11 @@ def _check_metric(crs: Any) -> None:
         )
 
 
-def _blocks(bounds: Box, b: Blocking, *, survey: Box | None = None) -> list[_Block]:
+def _blocks(bounds: Box, b: Blocking, *, survey: Box | None = None) -> BlockLattice:
     """The blocks over ``bounds``; with a region, cut to it (``bounds`` is then on the 16 m tiles).
     ``survey``: the whole survey's bounds (default ``bounds``)."""
-    survey = survey or bounds
-    side = b.block
-    assert side is not None, "ingest_blocked sets the side from the survey's density"
-    x0, y0, x1, y1 = bounds
-    xs = np.arange(np.floor(x0 / side) * side, x1 + 1e-9, side)
-    ys = np.arange(np.floor(y0 / side) * side, y1 + 1e-9, side)
-    out = []
-    for bx in xs:
-        for by in ys:
-            core = (float(bx), float(by), float(bx + side), float(by + side))
-            if b.region is not None:
-                core = (max(core[0], x0), max(core[1], y0), min(core[2], x1), min(core[3], y1))
-            grown = _grown(core, b.buffer)
-            extent = clip_bbox(grown, survey, what="the survey")
-            out.append(_Block(core, grown, (core[2] >= x1, core[3] >= y1), extent))
-    return out
+    assert b.block is not None, "ingest_blocked sets the side from the survey's density"
+    return BlockLattice(bounds, b.block, b.buffer, survey or bounds, cut=b.region is not None)
 
 
 def _grown(box: Box, by: float) -> Box:
@@ -286,16 +260,16 @@ class Scattered:
     density, how many points each block owns, the points per pilot square (:mod:`ingest.noise`),
     and how many points overlapping tiles held twice."""
 
-    files: list[Path]
+    files: dict[int, Path]  # the blocks that hold points
     density: float
-    own: NDArray[np.int64]
+    own: dict[int, int]
     squares: dict[tuple[int, int], int]
     twice: int = 0  # points dropped as held by two overlapping tiles (ingest.overlaps)
 
 
 def _scatter(
     catalog: Catalog,
-    blocks: list[_Block],
+    blocks: BlockLattice,
     tmp: Path,
     report: Progress,
     *,
@@ -309,11 +283,10 @@ def _scatter(
     once; how many points each block owns (in its square, for the progress of the modelling); and
     how many points it sees in each pilot square. The blocks of ``skip`` (finished by an earlier
     run) get no file."""
-    files = [tmp / f"block{k}.bin" for k in range(len(blocks))]
-    own = np.zeros(len(blocks), np.int64)
-    grown = np.array([blk.grown for blk in blocks])
-    cores = np.array([blk.core for blk in blocks])
-    modelled: Box = (*cores[:, :2].min(axis=0).tolist(), *cores[:, 2:].max(axis=0).tolist())
+    files: dict[int, Path] = {}
+    own: Counter[int] = Counter()
+    modelled = blocks.cores()
+    finished = np.fromiter(skip, np.int64)
     done, total = 0, catalog.points
     seen, cells = 0, []
     squares: Counter[tuple[int, int]] = Counter()
@@ -322,7 +295,6 @@ def _scatter(
     for i, f in enumerate(catalog.files):
         if box is not None and not overlaps(f.bounds, box):
             continue
-        reached = [k for k in boxes_meeting(grown, f.bounds) if k not in skip]
         for chunk in catalog.records(f, chunk_size=CHUNK, box=box):
             done += len(chunk)
             rec = shared(i, chunk)
@@ -332,19 +304,19 @@ def _scatter(
             seen += int(use.sum())
             cells.append(np.unique(tile_key(*(np.floor(rec[a][use] / DENSITY_BLOCK) for a in "xy"))))
             squares.update(square_counts(rec["x"][use], rec["y"][use]))
-            for k in reached:
-                inside = in_box(rec, tuple(grown[k]))
-                if inside.any():
-                    part = rec[inside]
-                    x0, y0, x1, y1 = blocks[k].core
-                    own[k] += int(
-                        ((part["x"] >= x0) & (part["x"] < x1) & (part["y"] >= y0) & (part["y"] < y1)).sum()
-                    )
-                    with files[k].open("ab") as fh:
-                        part.tofile(fh)
+            k, at, owned = blocks.holding(rec["x"], rec["y"])
+            keep = ~np.isin(k, finished)
+            k, at, owned = k[keep], at[keep], owned[keep]
+            starts = np.flatnonzero(np.r_[True, k[1:] != k[:-1]]) if len(k) else np.zeros(0, np.intp)
+            for s, e in zip(starts, np.r_[starts[1:], len(k)]):
+                block = int(k[s])
+                own[block] += int(owned[s:e].sum())
+                path = files.setdefault(block, tmp / f"block{block}.bin")
+                with path.open("ab") as fh:
+                    rec[at[s:e]].tofile(fh)
             report("reading", done, total)
     occupied = len(np.unique(np.concatenate(cells))) * DENSITY_BLOCK**2 if cells else 0.0
-    return Scattered(files, seen / occupied if occupied else 0.0, own, dict(squares), shared.dropped)
+    return Scattered(files, seen / occupied if occupied else 0.0, dict(own), dict(squares), shared.dropped)
 
 
 def _check_in_header_bounds(rec: NDArray[Any], f: CatalogFile, modelled: Box) -> None:
@@ -360,11 +332,13 @@ def _check_in_header_bounds(rec: NDArray[Any], f: CatalogFile, modelled: Box) ->
         )
 
 
-def _jobs(blocks: list[_Block], files: list[Path], o: IngestOptions, crs: Any, *, skip: set[int]) -> list[Job]:
+def _jobs(
+    blocks: BlockLattice, files: dict[int, Path], o: IngestOptions, crs: Any, *, skip: set[int]
+) -> list[Job]:
     """The blocks that hold points and are not in ``skip``, the largest first, so that no worker is
     left with a big one while the others idle."""
-    jobs = [(k, blk, path, o, crs) for k, (blk, path) in enumerate(zip(blocks, files)) if k not in skip]
-    return sorted((j for j in jobs if j[2].exists()), key=lambda j: -j[2].stat().st_size)
+    jobs = [(k, blocks.block(k), path, o, crs) for k, path in sorted(files.items()) if k not in skip]
+    return sorted(jobs, key=lambda j: -j[2].stat().st_size)
 
 
 @contextmanager
@@ -461,15 +435,15 @@ class Counted:
 
     STEP = "modelling points"
 
-    def __init__(self, progress: Progress, own: NDArray[np.int64]) -> None:
+    def __init__(self, progress: Progress, own: dict[int, int]) -> None:
         self.progress, self.own, self.done, self.total = progress, own, 0, 0
 
     def start(self, blocks: list[int]) -> None:
-        self.total = int(self.own[blocks].sum())
+        self.total = sum(self.own.get(k, 0) for k in blocks)
         self.progress(self.STEP, 0, self.total)
 
     def finished(self, k: int) -> None:
-        self.done += int(self.own[k])
+        self.done += self.own.get(k, 0)
         self.progress(self.STEP, self.done, self.total)
 
 
@@ -477,7 +451,7 @@ IN_FLIGHT = 2  # blocks sent per worker ahead of the results: the parent holds o
 CONNECT_SECONDS = 20  # how long a scheduler may take to answer
 
 
-Job = tuple[int, _Block, Path, IngestOptions, Any]  # a block's index, itself, its points' file, how, the CRS
+Job = tuple[int, Block, Path, IngestOptions, Any]  # a block's index, itself, its points' file, how, the CRS
 
 
 def _on_cluster(jobs: list[Job], client: Any) -> Iterator[tuple[int, BlockResult | None]]:
@@ -500,7 +474,7 @@ def _on_cluster(jobs: list[Job], client: Any) -> Iterator[tuple[int, BlockResult
 
 
 def _pilot_threshold(
-    sc: Scattered, blocks: list[_Block], buffer: float, o: IngestOptions, crs: Any, report: Progress
+    sc: Scattered, blocks: BlockLattice, buffer: float, o: IngestOptions, crs: Any, report: Progress
 ) -> float:
     """The survey's flat threshold, measured as a one-piece ingest measures it: on the ground of
     the fullest pilot square (:mod:`ingest.noise`), filtered with a buffer's width of points
@@ -509,8 +483,9 @@ def _pilot_threshold(
     square = fullest_square(sc.squares)
     around = _grown(square, buffer)
     parts = []
-    for blk, path in zip(blocks, sc.files):
-        if path.exists() and overlaps(blk.core, around):
+    for k, path in sorted(sc.files.items()):
+        blk = blocks.block(k)
+        if overlaps(blk.core, around):
             rec = np.fromfile(path, RECORD)
             x, y = rec["x"], rec["y"]
             parts.append(
@@ -519,9 +494,7 @@ def _pilot_threshold(
     rec = np.concatenate(parts)
     cloud = from_records(rec[np.lexsort((rec["z"], rec["y"], rec["x"]))], crs=crs, source="pilot square")
     # the blocks' extents together span the survey's bounds, where a one-piece grid ends
-    extents = np.array([blk.extent for blk in blocks])
-    survey: Box = (*extents[:, :2].min(axis=0).tolist(), *extents[:, 2:].max(axis=0).tolist())
-    extent = clip_bbox(around, survey, what="the survey")
+    extent = clip_bbox(around, blocks.extents(), what="the survey")
     ground = classify_ground(
         to_metres(cloud), method=o.method, exclude=o.exclude, density=o.density, extent=extent
     )
@@ -540,7 +513,7 @@ def _one_block_args(job: Job) -> tuple[int, BlockResult | None]:
 
 
 def _one_block_at(
-    k: int, blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str
+    k: int, blk: Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str
 ) -> tuple[int, BlockResult | None]:
     """A block modelled in a worker process (a local pool's or a cluster's), whose allocator is
     first let keep freed memory; its result carries the worker's peak memory so far."""
@@ -549,7 +522,7 @@ def _one_block_at(
     return k, None if r is None else dataclasses.replace(r, peak_mib=round(peak_mib(), 1))
 
 
-def _one_block(blk: _Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str) -> BlockResult | None:
+def _one_block(blk: Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source: str) -> BlockResult | None:
     """Model one block from its points (``RECORD`` rows) and keep what lies in its own square."""
     x0, y0, x1, y1 = blk.core
     own = points_in_box(rec["x"], rec["y"], blk.core, closed=False)

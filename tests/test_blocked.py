@@ -254,7 +254,7 @@ def test_blocks_size_their_outlier_test_to_the_whole_survey(scene_file, tmp_path
 
     catalog = open_catalog([scene_file])
     sc = _scatter(catalog, _blocks(catalog.bounds, Blocking(block=96)), tmp_path, lambda *a: None, exclude=NOISE)
-    assert sc.own.sum() == catalog.points  # every point in one block's own square
+    assert sum(sc.own.values()) == catalog.points  # every point in one block's own square
     cloud = read(scene_file)
     seen = ~excluded(cloud.classification, NOISE)
     assert sc.density == pytest.approx(point_density(cloud.xyz[seen, :2]), rel=1e-12)

@@ -20,6 +20,7 @@ from tdb.cloud import GROUND, PointCloud, check_spread, from_arrays
 from tdb.errors import InputError
 from tdb.options import GroundMethod, parse
 from tdb.progress import Progress, or_silent
+from tdb.raster import MAX_CELLS
 
 STEP = "ground filter"
 
@@ -72,9 +73,10 @@ def classify_ground(
     """
     m = parse(GroundMethod, method)
     cloud = points if isinstance(points, PointCloud) else from_arrays(*np.asarray(points, float).T, validate=False)
-    if m is not GroundMethod.CLASSIFIED:
-        b = cloud.bounds
-        area = box_area(extent if extent is not None else (b[0], b[1], b[3], b[4]))
+    b = cloud.bounds
+    area = box_area(extent if extent is not None else (b[0], b[1], b[3], b[4]))
+    # An extent beyond any grid the filter lays is its own to refuse, with a word on the units.
+    if m is not GroundMethod.CLASSIFIED and area / AutoParams().cell ** 2 <= MAX_CELLS:
         check_fits(ground_bytes(area, len(cloud)), what=cloud.source, area=area)
     drop = excluded(cloud.classification, exclude)
     if not drop.any():
