@@ -16,6 +16,8 @@ from numpy.typing import NDArray
 
 from tdb.bbox import Box, clip_bbox
 
+BUFFER = 64.0  # m of their neighbours' points the blocks read: the ground filter's reach (ingest.blocked)
+
 
 @dataclass(frozen=True)
 class Block:

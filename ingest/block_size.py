@@ -55,6 +55,13 @@ def ground_bytes(area: float, points: float) -> float:
     return GROUND_BYTES_PER_M2 * area + GROUND_BYTES_PER_POINT * points
 
 
+def fits(need: float, *, memory: int | None = None) -> bool:
+    """Whether ``need`` bytes fit ``memory`` (default: the machine's physical memory; anything fits
+    where the system does not say)."""
+    memory = physical_bytes() if memory is None else memory
+    return not memory or need <= memory
+
+
 def check_fits(need: float, *, what: str, area: float, memory: int | None = None) -> None:
     """Refuse, before any work, to model ``what`` whole where it needs ``need`` bytes (from
     :func:`block_bytes` or :func:`ground_bytes`, over ``area`` m²) and the machine has less
@@ -66,7 +73,7 @@ def check_fits(need: float, *, what: str, area: float, memory: int | None = None
         If ``need`` exceeds ``memory``; its remedy is to model the survey block by block.
     """
     memory = physical_bytes() if memory is None else memory
-    if memory and need > memory:
+    if not fits(need, memory=memory):
         raise InputError(
             f"{what}: modelling its {area / 1e6:,.1f} km² extent whole needs about {need / 2**30:,.0f} GiB, "
             f"more than this machine's {memory / 2**30:,.0f} GiB (the grids cover the whole extent, "

@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.block_lattice import Block, BlockLattice
+from ingest.block_lattice import BUFFER, Block, BlockLattice
 from ingest.block_size import block_side
 from ingest.block_totals import BlockResult, Totals
 from ingest.catalog import Box, Catalog, CatalogFile, is_catalog, open_catalog
@@ -84,7 +84,6 @@ from tdb.tiles import LEVELS, SUBGRID, tile_key
 from tdb.units import to_metres, units_of
 from tdb.version_writer import VersionWriter
 
-BUFFER = 64.0  # m: see the module's description
 MARGIN = 32.0  # m of the buffer the model beyond the ground filter is made from: see the module's description
 CHUNK = 2_000_000  # points decoded at a time
 

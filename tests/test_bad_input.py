@@ -88,11 +88,11 @@ def test_info_as_json_holds_no_nan(tmp_path, small_cloud):
 
 
 def test_an_extent_the_machine_cannot_hold_whole_is_refused_before_any_work(tmp_path, small_cloud, monkeypatch):
-    """Two patches 5 km apart, on a machine of 1 GiB: the whole model's grids would span the box
+    """Two patches 5 km apart, on a machine of 1 GiB: a whole model's grids would span the box
     between them (about 11 GiB), so it is refused at once, and nothing is stored, rather than the
     process being killed by the system once the memory is gone."""
     from ingest import block_size
-    from ingest.ground import classify_ground
+    from ingest.objects import survey_objects
     from tdb.errors import Remedy
 
     monkeypatch.setattr(block_size, "physical_bytes", lambda: 2**30)
@@ -102,21 +102,41 @@ def test_an_extent_the_machine_cannot_hold_whole_is_refused_before_any_work(tmp_
         ingest(wide, db, version="v")
     assert info.value.remedy is Remedy.BLOCKS
     assert db.versions() == []
-    with pytest.raises(InputError, match="block by block"):
-        classify_ground(wide)
-    # the provider's own classes need no grid; the patches alone fit
-    assert classify_ground(wide, method="classified").sum() == 2 * (small_cloud.classification == 2).sum()
-    assert classify_ground(small_cloud).any()
+    # trees and point classes (tdb trees, tdb classify) need the dense model over the extent too
+    with pytest.raises(InputError, match="block by block") as info:
+        survey_objects(wide)
+    assert info.value.remedy is Remedy.BLOCKS
 
 
-def test_the_ground_command_says_so_in_one_line(tmp_path, small_cloud, monkeypatch):
+def test_the_ground_of_an_extent_too_wide_to_filter_whole_is_found_block_by_block(small_cloud, monkeypatch):
+    """Where the filter's grids over the extent would not fit, the points are filtered block by
+    block, as a blocked ingest filters them: the ground found whole, but for a few points."""
+    import numpy as np
+
     from ingest import block_size
-    from ingest.readers import write_las
+    from ingest.ground import by_blocks, classify_ground
+
+    wide = two_patches(small_cloud, 700.0)
+    whole = classify_ground(wide)
+    cut = []
+    monkeypatch.setattr(by_blocks, "block_side", lambda *a, **k: (cut.append(1), 128.0)[1])
+    monkeypatch.setattr(block_size, "physical_bytes", lambda: 2**25)  # 32 MiB: the 0.8 km² box does not fit
+    blocks = classify_ground(wide)
+    assert cut  # it went block by block
+    assert np.mean(blocks == whole) >= 0.995
+    assert blocks.sum() == pytest.approx(whole.sum(), rel=0.01)
+    # the provider's own classes need no grid
+    assert (classify_ground(wide, method="classified") == (wide.classification == 2)).all()
+
+
+def test_the_ground_command_filters_a_wide_extent_block_by_block(tmp_path, small_cloud, monkeypatch):
+    from ingest import block_size
+    from ingest.readers import read, write_las
 
     monkeypatch.setattr(block_size, "physical_bytes", lambda: 2**30)
     src = tmp_path / "wide.laz"
     write_las(src, two_patches(small_cloud, 5_000.0))
     r = CliRunner().invoke(main, ["ground", str(src), "--out", str(tmp_path / "g.laz")])
-    assert r.exit_code == 1
-    assert r.output.count("\n") == 1 and "block by block" in r.output and "--block" in r.output
-    assert not (tmp_path / "g.laz").exists()
+    assert r.exit_code == 0, r.output
+    out = read(tmp_path / "g.laz")
+    assert len(out) == 2 * len(small_cloud) and (out.classification == 2).mean() > 0.3

@@ -8,10 +8,11 @@ from collections.abc import Iterable
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.block_size import check_fits, ground_bytes
+from ingest.block_size import fits, ground_bytes
 from ingest.ground.auto import AutoParams, auto_ground
+from ingest.ground.by_blocks import ground_by_blocks
 from ingest.ground.contour import ContourParams, active_contour
-from ingest.ground.outliers import deep_pits, low_outliers
+from ingest.ground.outliers import deep_pits, low_outliers, point_density
 from ingest.ground.sohn import SohnParams, sohn_dowman
 from ingest.ground.tiling import available_cores, by_tiles
 from tdb.bbox import box_area
@@ -68,26 +69,54 @@ def classify_ground(
     DegenerateInputError
         For fewer than three points, or points spanning no area (once ``exclude`` is applied).
     InputError
-        For ``classified``, where no point the filter sees is classified ground; or where
-        filtering the extent whole needs more memory than the machine has.
+        For ``classified``, where no point the filter sees is classified ground.
+
+    Where filtering the extent whole would need more memory than the machine has (a corridor
+    survey, two sites in one file), the points are filtered block by block, as a blocked ingest
+    filters them (:mod:`ingest.ground.by_blocks`).
     """
     m = parse(GroundMethod, method)
     cloud = points if isinstance(points, PointCloud) else from_arrays(*np.asarray(points, float).T, validate=False)
-    b = cloud.bounds
-    area = box_area(extent if extent is not None else (b[0], b[1], b[3], b[4]))
-    # An extent beyond any grid the filter lays is its own to refuse, with a word on the units.
-    if m is not GroundMethod.CLASSIFIED and area / AutoParams().cell ** 2 <= MAX_CELLS:
-        check_fits(ground_bytes(area, len(cloud)), what=cloud.source, area=area)
     drop = excluded(cloud.classification, exclude)
     if not drop.any():
         check_spread(cloud)
-        return _ground(cloud, m, progress, density, extent)
+        return _fitting(cloud, m, progress, density, extent)
     use = np.flatnonzero(~drop)
     kept = cloud.take(use)
     check_spread(kept)
     ground = np.zeros(len(drop), bool)
-    ground[use] = _ground(kept, m, progress, density, extent)
+    ground[use] = _fitting(kept, m, progress, density, extent)
     return ground
+
+
+def _fitting(
+    cloud: PointCloud,
+    m: GroundMethod,
+    progress: Progress | None,
+    density: float | None,
+    extent: tuple[float, float, float, float] | None,
+) -> NDArray[np.bool_]:
+    """The ground, filtered whole where the filter's grids over the extent fit the machine's
+    memory, else block by block (:mod:`ingest.ground.by_blocks`). An extent beyond any grid the
+    filter lays is left to it to refuse, with a word on the units."""
+    b = cloud.bounds
+    survey = extent if extent is not None else (b[0], b[1], b[3], b[4])
+    area = box_area(survey)
+    if (
+        m is GroundMethod.CLASSIFIED
+        or area / AutoParams().cell ** 2 > MAX_CELLS
+        or fits(ground_bytes(area, len(cloud)))
+    ):
+        return _ground(cloud, m, progress, density, extent)
+    density = density or point_density(cloud.xyz[:, :2])
+    return ground_by_blocks(
+        cloud,
+        lambda part, box: _ground(part, m, None, density, box),
+        density=density,
+        survey=survey,
+        progress=progress,
+        step=STEP,
+    )
 
 
 def _ground(

@@ -7,11 +7,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from ingest.block_size import block_bytes, check_fits
 from ingest.dtm import DEFAULT_RESOLUTION, dense_model
 from ingest.ground import classify_ground
 from ingest.objects.buildings import FootprintParams, find_buildings
 from ingest.objects.cover import Cover, CoverParams, classify_cover
 from ingest.objects.trees import TreeParams, find_trees
+from tdb.bbox import box_area
 from tdb.classes import NOISE, excluded
 from tdb.cloud import PointCloud
 from tdb.objects import Building, Tree
@@ -74,7 +76,18 @@ def survey_objects(
 ) -> Objects:
     """Ground, dense model and objects of a cloud in metres, in one call (what ``tdb classify``
     and ``tdb trees`` run). Points of the ``exclude`` classes are never ground nor objects: they
-    keep their own class."""
+    keep their own class.
+
+    Raises
+    ------
+    InputError
+        Before any work, where the dense model and the objects' rasters over the cloud's extent
+        need more memory than the machine has (:func:`ingest.block_size.check_fits`): a blocked
+        ingest finds and stores the objects of such a survey block by block.
+    """
+    b = cloud.bounds
+    area = box_area((b[0], b[1], b[3], b[4]))
+    check_fits(block_bytes(area, len(cloud)), what=cloud.source, area=area)
     report = or_silent(progress)
     ground = classify_ground(cloud, method=method, progress=report, exclude=exclude)
     report("dense model", 0, 1)
