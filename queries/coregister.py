@@ -48,7 +48,7 @@ from tdb.fill import fill_nearest
 from tdb.options import Coregistration, parse
 from tdb.raster import Raster
 from tdb.surface import line_rebuild_at
-from tdb.tiles import SUBGRID, NodeLattice
+from tdb.tiles import LEVELS, SUBGRID, NodeLattice
 
 CORRELATION = 10.0  # m: distance over which ground-model errors are correlated
 SIGNIFICANCE = 3.0  # a shift applies in ``auto`` where it exceeds this many standard errors
@@ -224,8 +224,11 @@ def estimation_grids(
     whole 16 m blocks of the area holding about :data:`SAMPLED_SHARE` × :data:`FIT_CELLS` cells."""
     extent = bbox or _extent(db, before)
     cells = GRID_CELLS if extent is None else (extent[2] - extent[0]) * (extent[3] - extent[1]) / GRID_CELL**2
-    # the fit reads FIT_CELLS cells: blocks holding a few times as many are all it needs rebuilt
-    blocks = max(1, int(cells // (SAMPLED_SHARE * FIT_CELLS)))
+    # The fit reads FIT_CELLS cells: blocks holding a few times as many are all it needs rebuilt.
+    # Counted where the survey holds tiles: stripes spaced for a mostly empty box (a corridor,
+    # two sites) would miss its data altogether.
+    held = len(db.tiles(before, level=max(LEVELS), bbox=bbox, ordered=False)[0]) * max(LEVELS) ** 2
+    blocks = max(1, int(min(cells, held / GRID_CELL**2) // (SAMPLED_SHARE * FIT_CELLS)))
     return surface_grids(
         db,
         before,

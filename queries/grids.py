@@ -22,6 +22,8 @@ from tdb.tiles import SUBGRID, node_lattice, node_spacing, tile_key
 
 Box = tuple[float, float, float, float]
 BLOCK = 16  # m: the blocks a sample of the area is taken in
+PART = 1024  # m: the side of the parts a surface over a vast box is rebuilt in
+PART_NODES = 16_000_000  # nodes of the largest lattice rebuilt at once (128 MB)
 
 
 def shared_tiles(
@@ -92,7 +94,22 @@ def surface_grids(  # noqa: PLR0913 (the two versions, where, and how finely)
 
 
 def _surface(db: Database, version: str, level: int, xg: Any, yg: Any, box: Box, cells: Any) -> np.ndarray:
-    """The version's rebuilt surface at the flat sub-grid indices ``cells`` of each tile (T, len(cells))."""
-    x, y, z, _ = db.points(version, level=level, bbox=box, ordered=False)
-    nodes = node_lattice(x, y, z, level).tile_nodes(xg, yg)
-    return line_rebuild_at(nodes, cells)
+    """The version's rebuilt surface at the flat sub-grid indices ``cells`` of each tile (T, len(cells)).
+
+    A tile's nodes come from its own points alone, so where the tiles' box would hold a lattice of
+    more than :data:`PART_NODES` nodes (a version spread over a vast, mostly empty box) they are
+    rebuilt part by part, each part's points read on their own."""
+    s = node_spacing(level)
+    if (box[2] - box[0]) * (box[3] - box[1]) / s**2 <= PART_NODES:
+        parts = [np.arange(len(xg))]
+    else:
+        key = tile_key(np.asarray(xg) // PART, np.asarray(yg) // PART)
+        order = np.argsort(key, kind="stable")
+        parts = np.split(order, np.flatnonzero(np.diff(key[order])) + 1)
+    out = np.empty((len(xg), len(cells)))
+    for part in parts:
+        px, py = xg[part], yg[part]
+        where = (float(px.min()), float(py.min()), float(px.max() + level), float(py.max() + level))
+        x, y, z, _ = db.points(version, level=level, bbox=where, ordered=False)
+        out[part] = line_rebuild_at(node_lattice(x, y, z, level).tile_nodes(px, py), cells)
+    return out

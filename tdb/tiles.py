@@ -14,6 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.errors import InputError
+from tdb.raster import MAX_CELLS
+
 LEVELS: tuple[int, ...] = (2, 4, 8, 16)
 """Tile sides of the resolution pyramid, in metres, finest first."""
 
@@ -166,12 +169,26 @@ class NodeLattice:
 def node_lattice(
     x: NDArray[np.float64], y: NDArray[np.float64], z: NDArray[np.float64], level: int
 ) -> NodeLattice:
-    """Place points that lie on the node lattice of ``level`` (stored points) on it."""
+    """Place points that lie on the node lattice of ``level`` (stored points) on it.
+
+    Raises
+    ------
+    InputError
+        If the lattice over the points' box would exceed :data:`tdb.raster.MAX_CELLS` nodes
+        (a version spread over a vast box, read whole): a smaller area must be read.
+    """
     s = node_spacing(level)
     i, j = np.rint(x / s).astype(np.int64), np.rint(y / s).astype(np.int64)
     if len(i) == 0:
         return NodeLattice(np.full((0, 0), np.nan), 0, 0, s)
     i0, j0 = int(i.min()), int(j.min())
-    grid = np.full((int(j.max()) - j0 + 1, int(i.max()) - i0 + 1), np.nan)
+    shape = (int(j.max()) - j0 + 1, int(i.max()) - i0 + 1)
+    if shape[0] * shape[1] > MAX_CELLS:
+        raise InputError(
+            f"the {s:g} m node lattice over these points' {shape[1] * s / 1000:,.1f} × "
+            f"{shape[0] * s / 1000:,.1f} km box needs {shape[0] * shape[1]:,} nodes (most {MAX_CELLS:,}): "
+            "read a smaller area"
+        )
+    grid = np.full(shape, np.nan)
     grid[j - j0, i - i0] = z
     return NodeLattice(grid, i0, j0, s)

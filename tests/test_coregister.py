@@ -266,3 +266,28 @@ def test_two_realisations_of_a_datum_are_compared_and_other_zones_refused():
     assert note and "compared as they are" in note
     with pytest.raises(CRSError, match="different horizontal"):
         check_same_horizontal(CRS.from_epsg(32617), CRS.from_epsg(32618), names=("a", "b"), at=at)
+
+
+def test_two_sites_far_apart_are_aligned_and_compared(tmp_path, small_cloud):
+    """A version of two patches 20 km apart: the surfaces are rebuilt part by part, and the
+    co-registration's sample stripes are spaced for the tiles held, not for the empty box between:
+    a re-survey 0.3 m lower is found so, and nothing else changed."""
+    import dataclasses
+
+    import tdb
+    from ingest.blocked import Blocking, ingest_blocked
+    from ingest.readers import write_las
+    from queries.changes import detect
+    from queries.coregister import coregister
+    from tests.conftest import two_patches
+
+    wide = two_patches(small_cloud, 20_000.0)
+    lower = dataclasses.replace(wide, xyz=wide.xyz - np.array([0.0, 0.0, 0.3]))
+    for name, cloud in (("a", wide), ("b", lower)):
+        write_las(tmp_path / f"{name}.laz", cloud)
+    db = tdb.open(tmp_path / "w.tdb", create=True)
+    for name in "ab":
+        ingest_blocked(tmp_path / f"{name}.laz", db, version=name, blocking=Blocking(workers=1))
+    shift = coregister(db, "a", "b", method="auto")
+    assert shift.dz == pytest.approx(-0.3, abs=0.02) and shift.vertical
+    assert detect(db, "a", "b", shift=shift) == []

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -26,3 +27,14 @@ def test_raster_and_sorted_lookups_agree(count, spread, seed):
     hit = found >= 0
     np.testing.assert_array_equal(keys[found[hit]], probe[hit])
     assert hit[: len(keys)].all()
+
+
+def test_a_lattice_over_a_vast_box_is_refused_not_allocated():
+    """Two nodes 1,000 km apart would need a lattice of 4·10¹² nodes: one clear error, at once."""
+    from tdb.errors import InputError
+    from tdb.tiles import node_lattice
+
+    x, y = np.array([0.0, 1e6]), np.array([0.0, 1e6])
+    with pytest.raises(InputError, match="smaller area"):
+        node_lattice(x, y, np.zeros(2), 2)
+    assert node_lattice(x[:1], y[:1], np.zeros(1), 2).z.shape == (1, 1)
