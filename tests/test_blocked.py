@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -412,6 +414,7 @@ def test_a_file_spread_over_a_wide_extent_goes_block_by_block(small_cloud, tmp_p
     r = CliRunner().invoke(main, ["ingest", str(wide), "--db", str(db), "--version", "v"])
     assert r.exit_code == 0, r.output
     assert "block by block" in r.output
+    assert re.search(r"points, 0\.0[0-9] km² \(in a box of 9\.[0-9]+ km²\)", r.output), r.output
     with tdb.open(db) as d:
         assert d.version("v").stats.points == 2 * len(small_cloud)
         assert d.version("v").params["blocks"] <= 4  # a block or two at each patch, none between

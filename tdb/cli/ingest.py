@@ -21,19 +21,32 @@ def _date(_ctx: click.Context, _param: click.Parameter, value: str | None) -> dt
         raise click.BadParameter(f"{value!r} is not a date like 2024-05-31") from None
 
 
+BOX_SHOWN = 2.0  # the box is named too where it is this many times the area modelled
+
+
 def _summary(
-    points: int, bounds: tuple[float, float, float, float] | None, seconds: float, *, worker_mib: float | None
+    points: int,
+    bounds: tuple[float, float, float, float] | None,
+    tiles: int,
+    seconds: float,
+    *,
+    worker_mib: float | None,
 ) -> str:
-    """Points, area, time and peak memory (this process's, and the largest worker's: as the
-    workers told it, ``worker_mib``, else of the child processes waited for) of an ingest."""
+    """Points, the area modelled (its 2 m ``tiles``; the ``bounds``' box too where the points
+    leave most of it empty: a corridor, two sites), time and peak memory (this process's, and the
+    largest worker's: as the workers told it, ``worker_mib``, else of the child processes waited
+    for) of an ingest."""
     from tdb.memory import peak_mib, workers_peak_mib
+    from tdb.tiles import LEVELS
 
     own = peak_mib()
     workers = workers_peak_mib(worker_mib)
-    km2 = (bounds[2] - bounds[0]) * (bounds[3] - bounds[1]) / 1e6 if bounds else 0.0
+    km2 = tiles * min(LEVELS) ** 2 / 1e6
+    box = (bounds[2] - bounds[0]) * (bounds[3] - bounds[1]) / 1e6 if bounds else 0.0
+    area = f"{km2:,.2f} km²" + (f" (in a box of {box:,.2f} km²)" if box > BOX_SHOWN * km2 else "")
     memory = f"peak memory {own:,.0f} MiB" + (f", {workers:,.0f} MiB per worker" if workers else "")
     rate = points / max(seconds, 1e-9)
-    return f"{points:,} points, {km2:,.2f} km² in {seconds:,.1f} s ({rate:,.0f} points/s), {memory}"
+    return f"{points:,} points, {area} in {seconds:,.1f} s ({rate:,.0f} points/s), {memory}"
 
 
 @click.command("ingest")
@@ -156,7 +169,11 @@ def command(
             v = ingest(cloud, db, version=version, acquired=date, replace=replace, options=options, progress=bars)
     r = v.stats.reduction
     seconds = time.perf_counter() - started
-    click.echo(_summary(v.stats.points, v.stats.bounds, seconds, worker_mib=v.params.get("worker_peak_mib")))
+    click.echo(
+        _summary(
+            v.stats.points, v.stats.bounds, r.tiles.get(2, 0), seconds, worker_mib=v.params.get("worker_peak_mib")
+        )
+    )
     click.echo(
         f"version {v.name!r} in {db_path}: {r.tiles.get(2, 0):,} tiles of 2 m, {r.kept_points:,} points kept "
         f"of {r.dense_posts:,} posts ({r.reduction_pct} % removed, RMSE {r.rmse_m} m)"
