@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from ingest.block_size import block_bytes
 from ingest.overlaps import SharedPoints
-from ingest.readers import RECORD, Box, from_records, in_box, iter_records
+from ingest.readers import RECORD, Box, from_records, in_box, is_las, iter_records
 from tdb.bbox import box_area, overlaps
 from tdb.cloud import PointCloud
 from tdb.crs import describe
@@ -132,6 +132,11 @@ def open_catalog(source: str | os.PathLike[str] | Sequence[str | os.PathLike[str
         raise InputError(f"{source}: no LAS/LAZ files")
     files, systems = [], []
     for path in paths:
+        if path.is_file() and not is_las(path):
+            raise FormatError(
+                f"{path}: not a LAS/LAZ file; tiles, and surveys modelled block by block, are read from "
+                "LAS/LAZ files only (a text file is modelled whole: convert a larger one to LAZ)"
+            )
         try:
             with laspy.open(path) as reader:
                 h = reader.header

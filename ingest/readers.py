@@ -60,7 +60,7 @@ def read(
         raise TdbIOError(f"{p}: not a file")
     if not os.access(p, os.R_OK):
         raise TdbIOError(f"{p}: permission denied")
-    if _is_las(p):
+    if is_las(p):
         cloud = _read_las(p, chunk_size=chunk_size)
     else:
         cloud = _read_text(p, labels=parse(LabelScheme, labels))
@@ -175,7 +175,8 @@ def las_crs(path: Path) -> Any:
         raise FormatError(f"{path}: unreadable header or coordinate system record ({exc})") from None
 
 
-def _is_las(path: Path) -> bool:
+def is_las(path: Path) -> bool:
+    """Whether a file starts as a LAS/LAZ file does (its signature)."""
     with path.open("rb") as fh:
         return fh.read(4) == b"LASF"
 

@@ -15,7 +15,7 @@ from ingest.catalog import open_catalog
 from ingest.pipeline import ingest
 from ingest.readers import read, write_las
 from ingest.synth import make_scene, write_scene
-from tdb.errors import CRSError, InputError, TdbIOError
+from tdb.errors import CRSError, FormatError, InputError, TdbIOError
 from tdb.tiles import LEVELS
 from tests.conftest import two_patches
 
@@ -107,6 +107,11 @@ def test_catalog_tiles_in_different_systems_are_refused(scene_file, tmp_path):
         open_catalog(tmp_path / "nothing-here.laz")
     with pytest.raises(InputError, match="multiple of 16"):
         Blocking(block=100)
+    # a text file is read whole: block by block says so, not that a LAS signature is bad
+    text = tmp_path / "s.xyz"
+    np.savetxt(text, cloud.xyz[:100], fmt="%.3f")
+    with pytest.raises(FormatError, match="LAS/LAZ files only"):
+        ingest_blocked(text, tdb.open(tmp_path / "t.tdb", create=True), version="v")
 
 
 def test_the_command_line_ingests_a_directory_of_tiles(scene_file, tmp_path):
