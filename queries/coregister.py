@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from queries.grids import Box, surface_grids
+from tdb.bbox import box_area
 from tdb.crs import check_same_horizontal
 from tdb.database import Database
 from tdb.errors import DatabaseError
@@ -223,7 +224,7 @@ def estimation_grids(
     :data:`GRID_CELL` m (coarser where that would exceed :data:`GRID_CELLS` cells), over
     whole 16 m blocks of the area holding about :data:`SAMPLED_SHARE` × :data:`FIT_CELLS` cells."""
     extent = bbox or _extent(db, before)
-    cells = GRID_CELLS if extent is None else (extent[2] - extent[0]) * (extent[3] - extent[1]) / GRID_CELL**2
+    cells = GRID_CELLS if extent is None else box_area(extent) / GRID_CELL**2
     # The fit reads FIT_CELLS cells: blocks holding a few times as many are all it needs rebuilt.
     # Counted where the survey holds tiles: stripes spaced for a mostly empty box (a corridor,
     # two sites) would miss its data altogether.

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.bbox import box_area
 from tdb.categories import NO_DATA
 from tdb.database import Database
 from tdb.errors import InputError
@@ -100,7 +101,7 @@ def _surface(db: Database, version: str, level: int, xg: Any, yg: Any, box: Box,
     more than :data:`PART_NODES` nodes (a version spread over a vast, mostly empty box) they are
     rebuilt part by part, each part's points read on their own."""
     s = node_spacing(level)
-    if (box[2] - box[0]) * (box[3] - box[1]) / s**2 <= PART_NODES:
+    if box_area(box) / s**2 <= PART_NODES:
         parts = [np.arange(len(xg))]
     else:
         key = tile_key(np.asarray(xg) // PART, np.asarray(yg) // PART)

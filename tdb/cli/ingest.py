@@ -36,13 +36,14 @@ def _summary(
     leave most of it empty: a corridor, two sites), time and peak memory (this process's, and the
     largest worker's: as the workers told it, ``worker_mib``, else of the child processes waited
     for) of an ingest."""
+    from tdb.bbox import box_area
     from tdb.memory import peak_mib, workers_peak_mib
     from tdb.tiles import LEVELS
 
     own = peak_mib()
     workers = workers_peak_mib(worker_mib)
     km2 = tiles * min(LEVELS) ** 2 / 1e6
-    box = (bounds[2] - bounds[0]) * (bounds[3] - bounds[1]) / 1e6 if bounds else 0.0
+    box = box_area(bounds) / 1e6 if bounds else 0.0
     area = f"{km2:,.2f} km²" + (f" (in a box of {box:,.2f} km²)" if box > BOX_SHOWN * km2 else "")
     memory = f"peak memory {own:,.0f} MiB" + (f", {workers:,.0f} MiB per worker" if workers else "")
     rate = points / max(seconds, 1e-9)
