@@ -31,6 +31,11 @@ class Block:
     closed: tuple[bool, bool]
     extent: Box
 
+    def owns(self, x: float, y: float) -> bool:
+        """Whether (x, y) lies in the block's square (west and south edges included): an object
+        is kept by the block its top or centroid is in, so by one block only."""
+        return self.core[0] <= x < self.core[2] and self.core[1] <= y < self.core[3]
+
 
 @dataclass(frozen=True)
 class BlockLattice:

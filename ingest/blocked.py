@@ -558,7 +558,7 @@ def _one_block(blk: Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source
         tiles={lv: len(t.code) for lv, t in levels.items()},
         no_data={lv: int((t.code == NO_DATA).sum()) for lv, t in levels.items()},
     )
-    trees, buildings = _owned(s.objects, blk.core)
+    trees, buildings = _owned(s.objects, blk)
     return BlockResult(
         levels={lv: (t.xg, t.yg, t.code) for lv, t in levels.items()},
         points=(m.x[on], m.y[on], m.z[on], m.n[on]),
@@ -577,17 +577,12 @@ def _one_block(blk: Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source
     )
 
 
-def _owned(objects: Objects | None, core: Box) -> tuple[list[Tree], list[Building]]:
-    """The trees whose top and the buildings whose centroid fall in the block's square, so that
-    each object is kept by one block."""
+def _owned(objects: Objects | None, blk: Block) -> tuple[list[Tree], list[Building]]:
+    """The trees whose top and the buildings whose centroid fall in the block's square."""
     if objects is None:
         return [], []
-
-    def owns(x: float, y: float) -> bool:
-        return core[0] <= x < core[2] and core[1] <= y < core[3]
-
-    trees = [t for t in objects.trees if owns(t.x, t.y)]
-    return trees, [b for b in objects.buildings if owns(b.footprint.centroid.x, b.footprint.centroid.y)]
+    trees = [t for t in objects.trees if blk.owns(t.x, t.y)]
+    return trees, [b for b in objects.buildings if blk.owns(b.footprint.centroid.x, b.footprint.centroid.y)]
 
 
 def _crop(dtm: Raster, box: Box) -> Raster:

@@ -47,7 +47,7 @@ def command(
     """
     import numpy as np
 
-    from ingest.objects import survey_objects
+    from ingest.objects import objects_of
     from ingest.readers import read, write_las
     from tdb.atomic import GEOPACKAGE, POINTS, check_destination
     from tdb.cli.progress import Bars
@@ -61,7 +61,7 @@ def command(
     raw = read(cloud, crs=crs, labels=labels)
     metric = to_metres(raw, assume_metres=assume_metres)
     with Bars(unit="tile") as bars:
-        found = survey_objects(metric, method=method, exclude=exclude, progress=bars)
+        found = objects_of(metric, method=method, exclude=exclude, progress=bars)
     counts = np.bincount(found.classes, minlength=max(CLASS_NAMES) + 1)
     click.echo(", ".join(f"{counts[k]:,} {name}" for k, name in CLASS_NAMES.items()))
     write_las(out, raw, classification=found.classes)

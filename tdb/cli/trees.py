@@ -45,7 +45,7 @@ def command(
       tdb trees forest.laz --out trees.gpkg
       tdb trees forest.laz --out trees.geojson --min-height 15
     """
-    from ingest.objects import survey_objects
+    from ingest.objects import objects_of
     from ingest.readers import read
     from tdb.atomic import GEOPACKAGE, check_destination
     from tdb.cli.progress import Bars
@@ -56,7 +56,7 @@ def command(
     raw = read(cloud, crs=crs, labels=labels)
     metric = to_metres(raw, assume_metres=assume_metres)
     with Bars(unit="tile") as bars:
-        found = survey_objects(metric, method=method, exclude=exclude, progress=bars)
+        found = objects_of(metric, method=method, exclude=exclude, progress=bars)
     trees = [t for t in found.trees if t.height >= min_height]
     write_features(out, {"trees": tree_features(trees), "tree_tops": tree_top_features(trees)}, crs=metric.crs)
     click.echo(f"wrote {out} ({len(trees)} trees of {min_height:g} m or more)")
