@@ -9,12 +9,16 @@ cost is the points', whatever the area.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ingest.block_size import block_side
 from tdb.bbox import Box, clip_bbox
+from tdb.blocks import group_starts
+from tdb.objects import Building, Tree
 
 BUFFER = 64.0  # m of their neighbours' points the blocks read: the ground filter's reach (ingest.blocked)
 
@@ -35,6 +39,13 @@ class Block:
         """Whether (x, y) lies in the block's square (west and south edges included): an object
         is kept by the block its top or centroid is in, so by one block only."""
         return self.core[0] <= x < self.core[2] and self.core[1] <= y < self.core[3]
+
+    def kept(self, trees: list[Tree], buildings: list[Building]) -> tuple[list[Tree], list[Building]]:
+        """The trees whose top and the buildings whose centroid lie in the block's square."""
+        return (
+            [t for t in trees if self.owns(t.x, t.y)],
+            [b for b in buildings if self.owns(b.footprint.centroid.x, b.footprint.centroid.y)],
+        )
 
 
 @dataclass(frozen=True)
@@ -63,6 +74,12 @@ class BlockLattice:
     @property
     def rows(self) -> int:
         return len(np.arange(self.origin[1], self.area[3] + 1e-9, self.side))
+
+    @classmethod
+    def over(cls, survey: Box, *, density: float, buffer: float = BUFFER) -> BlockLattice:
+        """The blocks over a whole survey's box, as large as a worker models at its ``density``
+        (points per m², :func:`ingest.block_size.block_side`)."""
+        return cls(survey, block_side(density, buffer=buffer), buffer, survey)
 
     def __len__(self) -> int:
         return self.columns * self.rows
@@ -117,6 +134,19 @@ class BlockLattice:
         k, p, o = np.concatenate(blocks), np.concatenate(points), np.concatenate(own)
         order = np.lexsort((p, k))
         return k[order], p[order], o[order]
+
+    def groups(
+        self, x: NDArray[np.float64], y: NDArray[np.float64], *, skip: NDArray[np.int64] | None = None
+    ) -> Iterator[tuple[int, NDArray[np.intp], NDArray[np.bool_]]]:
+        """Per block holding points (:meth:`holding`), but those of ``skip``: the block, its points'
+        indices in order, and which of them lie in its own square."""
+        k, at, own = self.holding(x, y)
+        if skip is not None and len(skip):
+            keep = ~np.isin(k, skip)
+            k, at, own = k[keep], at[keep], own[keep]
+        starts = group_starts(k, k)
+        for s, e in zip(starts, np.r_[starts[1:], len(k)]):
+            yield int(k[s]), at[s:e], own[s:e]
 
     def _cores(
         self, i: NDArray[np.int64], j: NDArray[np.int64]

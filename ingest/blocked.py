@@ -62,7 +62,6 @@ from ingest.ground import classify_ground
 from ingest.ground.outliers import DENSITY_BLOCK
 from ingest.ground.tiling import available_cores, one_blas_thread_here
 from ingest.noise import fullest_square, pilot_threshold, square_counts
-from ingest.objects import Objects
 from ingest.objects.cover import SINGLE_RETURNS
 from ingest.overlaps import SharedPoints
 from ingest.pipeline import IngestOptions, survey
@@ -76,7 +75,6 @@ from tdb.crs import as_crs
 from tdb.database import Database, Version, VersionInfo, check_version_name
 from tdb.errors import CRSError, FormatError, InputError, Remedy, TdbIOError, TdbWarning, VersionExistsError
 from tdb.memory import peak_mib
-from tdb.objects import Building, Tree
 from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
 from tdb.threads import keep_freed_memory, one_blas_thread
@@ -303,16 +301,11 @@ def _scatter(
             seen += int(use.sum())
             cells.append(np.unique(tile_key(*(np.floor(rec[a][use] / DENSITY_BLOCK) for a in "xy"))))
             squares.update(square_counts(rec["x"][use], rec["y"][use]))
-            k, at, owned = blocks.holding(rec["x"], rec["y"])
-            keep = ~np.isin(k, finished)
-            k, at, owned = k[keep], at[keep], owned[keep]
-            starts = np.flatnonzero(np.r_[True, k[1:] != k[:-1]]) if len(k) else np.zeros(0, np.intp)
-            for s, e in zip(starts, np.r_[starts[1:], len(k)]):
-                block = int(k[s])
-                own[block] += int(owned[s:e].sum())
+            for block, at, owned in blocks.groups(rec["x"], rec["y"], skip=finished):
+                own[block] += int(owned.sum())
                 path = files.setdefault(block, tmp / f"block{block}.bin")
                 with path.open("ab") as fh:
-                    rec[at[s:e]].tofile(fh)
+                    rec[at].tofile(fh)
             report("reading", done, total)
     occupied = len(np.unique(np.concatenate(cells))) * DENSITY_BLOCK**2 if cells else 0.0
     return Scattered(files, seen / occupied if occupied else 0.0, dict(own), dict(squares), shared.dropped)
@@ -558,7 +551,7 @@ def _one_block(blk: Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source
         tiles={lv: len(t.code) for lv, t in levels.items()},
         no_data={lv: int((t.code == NO_DATA).sum()) for lv, t in levels.items()},
     )
-    trees, buildings = _owned(s.objects, blk)
+    trees, buildings = ([], []) if s.objects is None else blk.kept(s.objects.trees, s.objects.buildings)
     return BlockResult(
         levels={lv: (t.xg, t.yg, t.code) for lv, t in levels.items()},
         points=(m.x[on], m.y[on], m.z[on], m.n[on]),
@@ -575,14 +568,6 @@ def _one_block(blk: Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source
         buildings=buildings,
         echo_test=s.objects.cover.echo_test if s.objects else True,
     )
-
-
-def _owned(objects: Objects | None, blk: Block) -> tuple[list[Tree], list[Building]]:
-    """The trees whose top and the buildings whose centroid fall in the block's square."""
-    if objects is None:
-        return [], []
-    trees = [t for t in objects.trees if blk.owns(t.x, t.y)]
-    return trees, [b for b in objects.buildings if blk.owns(b.footprint.centroid.x, b.footprint.centroid.y)]
 
 
 def _crop(dtm: Raster, box: Box) -> Raster:

@@ -113,13 +113,13 @@ def test_the_ground_of_an_extent_too_wide_to_filter_whole_is_found_block_by_bloc
     block, as a blocked ingest filters them: the ground found whole, but for a few points."""
     import numpy as np
 
-    from ingest import block_size
-    from ingest.ground import by_blocks, classify_ground
+    from ingest import block_lattice, block_size
+    from ingest.ground import classify_ground
 
     wide = two_patches(small_cloud, 700.0)
     whole = classify_ground(wide)
     cut = []
-    monkeypatch.setattr(by_blocks, "block_side", lambda *a, **k: (cut.append(1), 128.0)[1])
+    monkeypatch.setattr(block_lattice, "block_side", lambda *a, **k: (cut.append(1), 128.0)[1])
     monkeypatch.setattr(block_size, "physical_bytes", lambda: 2**25)  # 32 MiB: the 0.8 km² box does not fit
     blocks = classify_ground(wide)
     assert cut  # it went block by block

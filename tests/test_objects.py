@@ -578,15 +578,15 @@ def test_each_crown_falls_short_by_its_own_depth_over_its_returns() -> None:
 def test_objects_of_a_wide_extent_are_found_block_by_block(small_cloud, monkeypatch) -> None:
     """Where the rasters over the extent would not fit, the objects are found block by block, as
     a blocked ingest finds them: nearly every point's class, every building, the trees, each once."""
-    from ingest import block_size
-    from ingest.objects import by_blocks, objects_of
+    from ingest import block_lattice, block_size
+    from ingest.objects import objects_of
     from tests.conftest import two_patches
 
     wide = two_patches(small_cloud, 700.0)
     whole = objects_of(wide, exclude=(7, 18))
     cut = []
     monkeypatch.setattr(block_size, "physical_bytes", lambda: 2**25)  # 32 MiB: the 0.8 km² box does not fit
-    monkeypatch.setattr(by_blocks, "block_side", lambda *a, **k: (cut.append(1), 128.0)[1])
+    monkeypatch.setattr(block_lattice, "block_side", lambda *a, **k: (cut.append(1), 128.0)[1])
     blocks = objects_of(wide, exclude=(7, 18))
     assert cut
     assert np.mean(blocks.classes == whole.classes) >= 0.97

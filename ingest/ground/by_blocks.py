@@ -15,8 +15,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.block_lattice import BUFFER, BlockLattice
-from ingest.block_size import block_side
+from ingest.block_lattice import BlockLattice
 from tdb.bbox import Box
 from tdb.cloud import PointCloud
 from tdb.progress import Progress, or_silent
@@ -38,15 +37,12 @@ def ground_by_blocks(
     (x0, y0, x1, y1, holding every point), blocks sized to the survey's ``density`` (points per
     m², :func:`ingest.block_size.block_side`); ``progress`` is told ``(step, blocks done, blocks)``."""
     report = or_silent(progress)
-    lattice = BlockLattice(survey, block_side(density, buffer=BUFFER), BUFFER, survey)
-    k, at, own = lattice.holding(cloud.x, cloud.y)
-    starts = np.flatnonzero(np.r_[True, k[1:] != k[:-1]]) if len(k) else np.zeros(0, np.intp)
+    lattice = BlockLattice.over(survey, density=density)
+    groups = list(lattice.groups(cloud.x, cloud.y))
     ground = np.zeros(len(cloud), bool)
-    for n, (s, e) in enumerate(zip(starts, np.r_[starts[1:], len(k)])):
-        report(step, n, len(starts))
-        mine = own[s:e]
-        if mine.any() and e - s >= 3:
-            part = at[s:e]
-            ground[part[mine]] = ground_of(cloud.take(part), lattice.block(int(k[s])).extent)[mine]
-    report(step, len(starts), len(starts))
+    for n, (k, part, mine) in enumerate(groups):
+        report(step, n, len(groups))
+        if mine.any() and len(part) >= 3:
+            ground[part[mine]] = ground_of(cloud.take(part), lattice.block(k).extent)[mine]
+    report(step, len(groups), len(groups))
     return ground

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.block_lattice import BUFFER, BlockLattice
-from ingest.block_size import block_bytes, block_side, fits
+from ingest.block_lattice import BlockLattice
+from ingest.block_size import block_bytes, fits
 from ingest.dtm import DEFAULT_RESOLUTION, dense_model
 from ingest.ground import classify_ground
 from ingest.ground.outliers import point_density
@@ -82,20 +82,17 @@ def objects_by_blocks(
     Points of the ``exclude`` classes keep their class. ``progress`` is told
     ``("objects", blocks done, blocks)``; what the blocks warn of is said once."""
     report = or_silent(progress)
-    lattice = BlockLattice(survey, block_side(density, buffer=BUFFER), BUFFER, survey)
-    k, at, own = lattice.holding(cloud.x, cloud.y)
-    starts = np.flatnonzero(np.r_[True, k[1:] != k[:-1]]) if len(k) else np.zeros(0, np.intp)
+    lattice = BlockLattice.over(survey, density=density)
+    groups = list(lattice.groups(cloud.x, cloud.y))
     skip = excluded(cloud.classification, exclude)
     classes = np.where(skip, cloud.classification, np.where(ground, GROUND, OTHER)).astype(np.uint8)
     trees: list[Tree] = []
     buildings: list[Building] = []
     said: dict[str, warnings.WarningMessage] = {}
-    for n, (s, e) in enumerate(zip(starts, np.r_[starts[1:], len(k)])):
-        report(STEP, n, len(starts))
-        part, mine = at[s:e], own[s:e]
+    for n, (k, part, mine) in enumerate(groups):
+        report(STEP, n, len(groups))
         if not mine.any() or ground[part].sum() < 3:  # no ground to stand on: classes as above
             continue
-        blk = lattice.block(int(k[s]))
         sub = cloud.take(part)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -103,9 +100,10 @@ def objects_by_blocks(
             found = find_objects(sub, ground[part], dtm, params=params, skip=skip[part])
         said.update((str(w.message).split(": ", 1)[-1], w) for w in caught)
         classes[part[mine]] = found.classes[mine]
-        trees += [t for t in found.trees if blk.owns(t.x, t.y)]
-        buildings += [b for b in found.buildings if blk.owns(b.footprint.centroid.x, b.footprint.centroid.y)]
-    report(STEP, len(starts), len(starts))
+        own_trees, own_buildings = lattice.block(k).kept(found.trees, found.buildings)
+        trees += own_trees
+        buildings += own_buildings
+    report(STEP, len(groups), len(groups))
     for text, w in said.items():
         warnings.warn(f"{cloud.source}: {text}", w.category, stacklevel=2)
     return FoundObjects(classes, trees, buildings)
