@@ -18,6 +18,7 @@ from queries.filters import (
     components,
     tile_lines,
 )
+from queries.parts import Box, batches, fits_at_once, part_boxes, part_candidates
 from queries.profile import (
     BAND,
     MIN_TREND_PIECES,
@@ -34,6 +35,7 @@ from queries.shoulder import shoulders
 from tdb.database import Database
 from tdb.errors import FilterError
 from tdb.options import Measure
+from tdb.progress import Progress
 from tdb.tiles import NodeLattice, node_lattice
 
 REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
@@ -92,28 +94,57 @@ def find(
     *,
     level: int | None = None,
     bbox: tuple[float, float, float, float] | None = None,
+    progress: Progress | None = None,
 ) -> list[Match]:
     """Objects matching a filter at ``level`` (default: the filter's own) inside ``bbox``.
 
     Tiles of the filter's features join an object only where they stand out of the
     terrain on both sides (:func:`queries.relief.two_sided_relief`) by at least half
     the filter's ``min_measure``; an object's measure is the median over its tiles.
+
+    An area too wide to read at once (a whole survey of many km²) is read in parts
+    (:mod:`queries.parts`), with the same matches; a match's ``tiles`` then index its batch's
+    candidate tiles. ``progress`` (:mod:`tdb.progress`) follows the parts.
     """
     flt = resolve(name_or_filter)
     lv = level or flt.level
-    xg, yg, code = db.tiles(version, level=lv, bbox=bbox)
-    evidence = candidates(xg, yg, code, flt, lv)
+    grow = _reach(lv)
+    box = bbox or db.version(version).stats.bounds
+    if box is not None and fits_at_once(box, lv):
+        return _find_at_once(db, version, flt, level=lv, bbox=bbox, grow=grow)
+    boxes = part_boxes(db, version, level=lv, bbox=bbox)
+    if len(boxes) <= 1:
+        return _find_at_once(db, version, flt, level=lv, bbox=bbox, grow=grow)
+    tiles = part_candidates(db, version, flt, level=lv, bbox=bbox, parts=boxes, progress=progress)
+    out: list[Match] = []
+    for idx, box in batches(tiles, flt, level=lv, grow=grow, bbox=bbox):
+        px, py, pz, _ = db.points(version, level=lv, bbox=box, ordered=False)
+        t = tiles.take(idx)
+        evidence = (t.own, t.facing)
+        out += match_tiles(t.xg, t.yg, t.code, node_lattice(px, py, pz, lv), flt, level=lv, evidence=evidence)
+    return out
+
+
+def _reach(level: int) -> float:
+    """How far (m) beyond its tiles a match reads the stored points: the reliefs read twice as
+    far off, and the wide cross-sections (_steady_along), need them."""
+    return max(SPREAD_READ * REACH_TILES * level, side_of(WIDE * BAND)[1]) + level
+
+
+def _find_at_once(
+    db: Database, version: str, flt: Filter, *, level: int, bbox: Box | None, grow: float
+) -> list[Match]:
+    xg, yg, code = db.tiles(version, level=level, bbox=bbox)
+    evidence = candidates(xg, yg, code, flt, level)
     if not np.logical_or(*evidence).any():
         return []
-    # the nodes the reliefs read twice as far off, and the wide cross-sections, need (_steady_along)
-    grow = max(SPREAD_READ * REACH_TILES * lv, side_of(WIDE * BAND)[1]) + lv
     px, py, pz, _ = db.points(
         version,
-        level=lv,
+        level=level,
         bbox=None if bbox is None else (bbox[0] - grow, bbox[1] - grow, bbox[2] + grow, bbox[3] + grow),
         ordered=False,
     )
-    return match_tiles(xg, yg, code, node_lattice(px, py, pz, lv), flt, level=lv, evidence=evidence)
+    return match_tiles(xg, yg, code, node_lattice(px, py, pz, level), flt, level=level, evidence=evidence)
 
 
 @dataclass(frozen=True)

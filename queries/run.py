@@ -70,7 +70,7 @@ def _select(db: Database, q: Query, text: str, progress: Progress | None = None)
         )
     if q.what in OBJECTS:
         return _objects(db, q)
-    matches = find(db, q.version, q.what, level=q.level, bbox=q.bbox)
+    matches = find(db, q.version, q.what, level=q.level, bbox=q.bbox, progress=progress)
     if "width" in {c.attribute for c in q.conditions} | {q.order_by}:
         return _by_stretch(db, q, matches, progress=progress)
     return [f for f in map(_feature_of, matches) if _keep(f["properties"], q)]

@@ -616,6 +616,18 @@ class Database:
         trees, buildings = self._trees(vid, bbox), self._buildings(vid, bbox)
         return Area(name, level, bbox, xg, yg, code, x, y, z, n, trees, buildings)
 
+    def tile_blocks(
+        self, version: str, *, level: int = 2, bbox: tuple[float, float, float, float] | None = None
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """(bx, by) of the blocks of :data:`tdb.blocks.TILES_PER_BLOCK`² tiles of ``level`` that
+        ``version`` holds tiles in, meeting ``bbox``: where it has data, read without its tiles."""
+        tb = schema.tile_blocks
+        vid = self.version(version).id
+        q = select(tb.c.bx, tb.c.by).where(tb.c.version == vid, tb.c.level == _level(level))
+        rows = self._fetch(_in_blocks(q, tb, bbox, blocks.TILES_PER_BLOCK * level))
+        bx, by = _columns(rows, (np.int64, np.int64))
+        return bx, by
+
     def _block_tiles(
         self, vid: int, level: int, bbox: tuple[float, float, float, float] | None
     ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.uint8]]:

@@ -1,0 +1,141 @@
+"""A version too wide to read at once, read in parts: boxes of whole tile blocks where it holds data.
+
+A query over a whole survey of a municipality cannot hold every tile and kept point of it at
+once: at the 2 m level that is a quarter of a million tiles and as many points per km². So the
+area is cut into parts of about :data:`PART` m, on the database's tile blocks (:mod:`tdb.blocks`),
+and only the parts that hold tiles are listed: the empty part of a vast box costs nothing.
+
+A feature query (:func:`queries.match.find`) reads each part's tiles with a margin of one tile,
+which is all its candidate tiles depend on (a tile's own category, and for facing planes its
+edge neighbours), and keeps the candidates of the part's own tiles. The candidates of all parts
+are few beside the tiles; their groups (:func:`queries.filters.components`) are then matched
+batch by batch, each batch with the stored points of its box and the reach of its filter. An
+object is matched from its own tiles and the points around them alone, so the matches are those
+of the whole area read at once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from queries.filters import Filter, candidates, components
+from tdb.bbox import box_area
+from tdb.blocks import TILES_PER_BLOCK
+from tdb.database import Database
+from tdb.progress import Progress, or_silent
+from tdb.tiles import node_spacing
+
+Box = tuple[float, float, float, float]
+PART = 1024  # m: the side of a part (whole tile blocks: a block where it is larger)
+PART_NODES = 16_000_000  # nodes of the largest lattice read at once (128 MB)
+
+
+def fits_at_once(box: Box, level: int) -> bool:
+    """Whether a lattice of ``level``'s nodes over ``box`` is small enough to read at once."""
+    return box_area(box) / node_spacing(level) ** 2 <= PART_NODES
+
+
+def part_side(level: int) -> int:
+    """The side (m) of the parts at ``level``: whole tile blocks, about :data:`PART` m."""
+    block = TILES_PER_BLOCK * level
+    return max(1, PART // block) * block
+
+
+def part_boxes(db: Database, version: str, *, level: int, bbox: Box | None = None) -> list[Box]:
+    """The squares of :func:`part_side` that hold tiles of ``version`` at ``level`` meeting ``bbox``,
+    west to east, then south to north: a tile belongs to the one its lower-left corner lies in."""
+    side = part_side(level)
+    per = side // (TILES_PER_BLOCK * level)
+    bx, by = db.tile_blocks(version, level=level, bbox=bbox)
+    if len(bx) == 0:
+        return []
+    keys = np.unique(np.column_stack([bx // per, by // per]), axis=0)
+    return [(float(i * side), float(j * side), float((i + 1) * side), float((j + 1) * side)) for i, j in keys]
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """The candidate tiles of a filter over an area (:func:`queries.filters.candidates`): their
+    lower-left corners, codes, and whether each is one of the filter's features (``own``) or an
+    inclined plane facing another (``facing``)."""
+
+    xg: NDArray[np.int64]
+    yg: NDArray[np.int64]
+    code: NDArray[np.uint8]
+    own: NDArray[np.bool_]
+    facing: NDArray[np.bool_]
+
+    def __len__(self) -> int:
+        return len(self.xg)
+
+    def take(self, idx: NDArray[np.intp]) -> Candidates:
+        return Candidates(self.xg[idx], self.yg[idx], self.code[idx], self.own[idx], self.facing[idx])
+
+
+def part_candidates(
+    db: Database,
+    version: str,
+    flt: Filter,
+    *,
+    level: int,
+    bbox: Box | None,
+    parts: list[Box],
+    progress: Progress | None = None,
+) -> Candidates:
+    """The candidate tiles of ``flt`` among ``version``'s tiles at ``level`` in ``bbox``, read part
+    by part, each part's tiles with a margin of two tiles (the edge neighbours facing planes
+    are judged with)."""
+    report = or_silent(progress)
+    found: list[Candidates] = []
+    report("parts", 0, len(parts))
+    for k, part in enumerate(parts):
+        xg, yg, code = db.tiles(version, level=level, bbox=_clipped(_grown(part, 2 * level), bbox), ordered=False)
+        own, facing = candidates(xg, yg, code, flt, level)
+        mine = (own | facing) & (xg >= part[0]) & (xg < part[2]) & (yg >= part[1]) & (yg < part[3])
+        found.append(Candidates(xg[mine], yg[mine], code[mine], own[mine], facing[mine]))
+        report("parts", k + 1, len(parts))
+    return Candidates(*(np.concatenate([getattr(c, f) for c in found]) for f in Candidates.__dataclass_fields__))
+
+
+def batches(
+    tiles: Candidates, flt: Filter, *, level: int, grow: float, bbox: Box | None
+) -> Iterator[tuple[NDArray[np.intp], Box]]:
+    """The candidate tiles in batches of whole groups (:func:`queries.filters.components`), each
+    with the box its stored points are read in: its tiles' box grown by ``grow`` (the filter's
+    reach), within ``bbox`` grown so, as the area read at once would be. A batch holds the groups
+    that start in one part; a group that spans more than a part's worth of nodes is a batch alone."""
+    groups = components(tiles.xg, tiles.yg, tiles.code, flt, level, accept=np.ones(len(tiles), bool))
+    if not groups:
+        return
+    side = part_side(level)
+    start = np.array([[tiles.xg[g].min() // side, tiles.yg[g].min() // side] for g in groups])
+    _, which = np.unique(start, axis=0, return_inverse=True)
+    limit = None if bbox is None else _grown(bbox, grow)
+    for b in range(int(which.max()) + 1):
+        members = [groups[k] for k in np.flatnonzero(which.ravel() == b)]
+        idx = np.concatenate(members)
+        box = _clipped(_grown(_tiles_box(tiles, idx, level), grow), limit)
+        if fits_at_once(box, level) or len(members) == 1:
+            yield idx, box
+            continue
+        for g in members:
+            yield g, _clipped(_grown(_tiles_box(tiles, g, level), grow), limit)
+
+
+def _tiles_box(tiles: Candidates, idx: NDArray[np.intp], level: int) -> Box:
+    x, y = tiles.xg[idx], tiles.yg[idx]
+    return (float(x.min()), float(y.min()), float(x.max() + level), float(y.max() + level))
+
+
+def _grown(box: Box, by: float) -> Box:
+    return (box[0] - by, box[1] - by, box[2] + by, box[3] + by)
+
+
+def _clipped(box: Box, limit: Box | None) -> Box:
+    if limit is None:
+        return box
+    return (max(box[0], limit[0]), max(box[1], limit[1]), min(box[2], limit[2]), min(box[3], limit[3]))
