@@ -657,6 +657,35 @@ def big_db_section(out: list[str]) -> None:
     out.append("")
 
 
+def whole_query_section(out: list[str]) -> None:
+    docs = [json.loads(p.read_text()) for p in sorted(RESULTS.glob("whole_query_c*.json"))]
+    if not docs:
+        return
+    out += [
+        "## A query over a whole version, by parts",
+        "",
+        "`python -m benchmarks.whole_query [--copies N] [--at-once]`: the first version of "
+        "`big_db`'s 1 km² synthetic pair (4 points/m²) written N × N times side by side, and "
+        "`SELECT ditch FROM before` and `SELECT ridge FROM before` over the whole version, each in a "
+        "fresh process: by parts of about 1 km (`queries/parts.py`, as shipped) and, where measured, "
+        "read at once (– where not). *Same*: both ways found the same matches.",
+        "",
+        "| km² | 2 m tiles | query | matches | by parts s | by parts peak RSS MiB | at once s "
+        "| at once peak RSS MiB | same | machine |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for d in sorted(docs, key=lambda d: d["area_km2"]):
+        for r in d["runs"]:
+            parts, whole = r["parts"], r.get("at_once")
+            once = f"{whole['seconds']:.1f} | {whole['peak_rss_mib']:,.0f}" if whole else "– | –"
+            same = ("yes" if r["same_matches"] else "**no**") if "same_matches" in r else "–"
+            out.append(
+                f"| {d['area_km2']:,.0f} | {d['rows_2m']:,} | {r['filter']} | {parts['matches']:,} | "
+                f"{parts['seconds']:.1f} | {parts['peak_rss_mib']:,.0f} | {once} | {same} | {_machine(d)} |"
+            )
+    out.append("")
+
+
 def categorise_section(out: list[str]) -> None:
     doc = _load("categorise_speed")
     if not doc:
@@ -953,6 +982,7 @@ def main() -> None:
         block_memory_section,
         large_area_section,
         big_db_section,
+        whole_query_section,
         dask_section,
         buffered_section,
         copc_section,

@@ -1,0 +1,98 @@
+"""A feature query over a whole version of many km², by parts and read at once.
+
+The database is built as ``big_db`` builds it: the 1 km² synthetic pair of ``changes_synth``
+ingested once (4 points/m²), its first version written N × N times side by side, 1024 m apart.
+Then ``SELECT ditch FROM before`` and ``SELECT ridge FROM before`` run over the whole version,
+each in a fresh process: by parts (:mod:`queries.parts`, as shipped) and, where asked, read at
+once (the parts' lattice limit lifted), with their seconds, peak RSS and matches, and whether
+both ways found the same matches.
+
+    python -m benchmarks.whole_query [--copies 8] [--at-once] [--dir DIR]
+
+Results go to ``whole_query_cCOPIES.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing as mp
+import time
+from pathlib import Path
+from typing import Any
+
+import tdb
+from benchmarks.big_db import build
+from benchmarks.changes_synth import km2_pair
+from benchmarks.common import peak_rss_mib, save
+
+FILTERS = ("ditch", "ridge")
+
+
+def _query(path: str, name: str, at_once: bool, out: Any) -> None:
+    import queries.parts
+    from queries.match import find
+
+    if at_once:
+        queries.parts.PART_NODES = 10**12  # every box fits: the whole version read at once
+    with tdb.open(path, readonly=True) as db:
+        t0 = time.perf_counter()
+        matches = find(db, "before", name)
+        seconds = time.perf_counter() - t0
+    # a measure may be NaN (no relief read), which does not sort: compared as text
+    key = sorted((f"{m.measure:.9f}", m.geometry.normalize().wkt) for m in matches)
+    out.put({"seconds": seconds, "matches": len(matches), "peak_rss_mib": peak_rss_mib(), "key": key})
+
+
+def _build(directory: str, copies: int, out: Any) -> None:
+    work = Path(directory)
+    km2 = work / "km2.tdb"
+    if not km2.exists():
+        km2 = km2_pair(work, density=4.0)
+    with tdb.open(km2) as source, tdb.open(work / f"whole{copies}.tdb", create=True) as db:
+        build(source, db, copies, 1)
+        out.put({"bounds": db.version("before").stats.bounds, "rows": db.count("before", table="c2")})
+
+
+def in_process(target: Any, *args: Any) -> dict[str, Any]:
+    """``target(*args, queue)`` in a fresh process (spawned from this small one: Linux counts a
+    process's peak memory across the exec from its parent's image), and what it put."""
+    ctx = mp.get_context("spawn")
+    q = ctx.Queue()
+    p = ctx.Process(target=target, args=(*args, q))
+    p.start()
+    result = q.get()
+    p.join()
+    return dict(result)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--copies", type=int, default=8)
+    p.add_argument("--at-once", action="store_true", help="also read the whole version at once")
+    p.add_argument("--dir", type=Path, default=Path("/tmp/tdb-big"), help="where the databases are made and kept")
+    a = p.parse_args()
+    a.dir.mkdir(parents=True, exist_ok=True)
+    built = in_process(_build, str(a.dir), a.copies)  # this process stays small (in_process)
+    target, bounds = a.dir / f"whole{a.copies}.tdb", built["bounds"]
+    runs = []
+    for name in FILTERS:
+        parted = in_process(_query, str(target), name, False)
+        row: dict[str, Any] = {"filter": name, "parts": {k: v for k, v in parted.items() if k != "key"}}
+        if a.at_once:
+            whole = in_process(_query, str(target), name, True)
+            row["at_once"] = {k: v for k, v in whole.items() if k != "key"}
+            row["same_matches"] = whole["key"] == parted["key"]
+        print(json.dumps(row), flush=True)
+        runs.append(row)
+    doc = {
+        "copies": a.copies,
+        "area_km2": (bounds[2] - bounds[0]) * (bounds[3] - bounds[1]) / 1e6,
+        "rows_2m": built["rows"],
+        "runs": runs,
+    }
+    print(save(f"whole_query_c{a.copies}", doc))
+
+
+if __name__ == "__main__":
+    main()
