@@ -27,9 +27,10 @@ import tdb
 from benchmarks.common import DATA, save
 from ingest.pipeline import IngestOptions, ingest, survey
 from ingest.readers import read
-from queries.changes import detect, tile_nodes
+from queries.changes import detect
 from queries.coregister import coregister
 from queries.dod import difference_of_surfaces
+from queries.tile_change import tile_nodes
 from tdb.cloud import GROUND, PointCloud
 from tdb.crs import horizontal_part
 

@@ -24,22 +24,21 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from queries.centreline import elongation
+from queries.change_parts import moved_by_parts, reached
 from queries.coregister import Shift, shifted_lattice, site
 from queries.filters import builtin_filters
 from queries.grids import shared_tiles
 from queries.match import REACH_TILES, match_tiles
-from queries.relief import nan_extreme
+from queries.parts import fits_at_once, part_boxes, part_side
+from queries.tile_change import MovingTiles, level_of_detection, split_keys, tile_lattice, tile_lod
 from tdb.categories import NO_DATA
 from tdb.crs import check_same_horizontal
 from tdb.database import Database
-from tdb.evidence import GAP_SLOPE, MIN_SUPPORT, TileEvidence, supported_change
-from tdb.evidence import LEVEL as EVIDENCE_LEVEL
 from tdb.geojson import feature
 from tdb.outlines import outlines
-from tdb.surface import line_rebuild_at
-from tdb.tiles import SUBGRID, NodeLattice, node_lattice, tile_key
+from tdb.progress import Progress
+from tdb.tiles import NodeLattice, node_lattice, tile_key
 
-MIN_LOD = 0.10
 # A region smaller than ``min_tiles`` (but of at least MIN_STRONG_TILES) counts when its mean
 # change is at least STRONG × LoD: a 20 m² mound 1.9 m high is no noise.
 MIN_STRONG_TILES = 4
@@ -61,163 +60,6 @@ RULES = (  # (filter, sign of dz, kind when the filter matches in the later vers
 # Levels each rule's filter runs at besides its own. A mound or pit a few metres across holds no
 # extreme point at 2 m where its top is flat (a ground filter cuts steep tops); at 4 m it does.
 EXTRA_LEVELS = {"pit": (4,), "mound": (4,)}
-
-
-def level_of_detection(db: Database, a: str, b: str, *, shift: Shift | None = None) -> float:
-    """95 % level of detection from both surveys' ground noise and the error of their
-    surfaces rebuilt from the kept points (the reduction RMSE), at least ``MIN_LOD``; with a
-    co-registration ``shift``, at least 1.96 × the residual spread it left on stable ground."""
-    residual = 1.96 * shift.nmad if shift is not None and np.isfinite(shift.nmad) else 0.0
-    return max(residual, _noise_lod(db, a, b))
-
-
-def _noise_lod(db: Database, a: str, b: str) -> float:
-    terms = []
-    for name in (a, b):
-        stats = db.version(name).stats
-        noise = stats.noise_m if stats.noise_m is not None else 0.05
-        terms += [noise, stats.reduction.rmse_m or 0.0]
-    return max(MIN_LOD, 1.96 * float(np.sqrt(np.sum(np.square(terms)))))
-
-
-@dataclass(frozen=True)
-class TileJudgement:
-    """Per tile of a level, what both versions' ground evidence lets a change claim."""
-
-    lod: NDArray[np.float64]  # m: the level of detection
-    seen: NDArray[np.bool_]  # both versions saw the tile's ground well enough
-    depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface may stand above its ground
-    layer: NDArray[np.float64]  # (2, tiles) m: the layer each version's surface lies in (tdb.evidence)
-
-
-def tile_lod(
-    db: Database, a: str, b: str, xg: NDArray[np.int64], yg: NDArray[np.int64], *, level: int, lod: float
-) -> TileJudgement:
-    """Per tile of ``level`` (corners ``xg``, ``yg``), the level of detection grown by both
-    versions' ground evidence (:mod:`tdb.evidence`), at least ``lod``; whether both versions
-    saw the tile well enough for a change to be claimed; and each version's depth of surface over
-    its ground returns. A coarser tile takes the mean of its 2 m tiles. Where a version holds no
-    evidence (stored before it was kept) the tile keeps ``lod``, counts as seen and has depth 0."""
-    bbox = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
-    variance = np.zeros(len(xg))
-    seen = np.ones(len(xg), bool)
-    depth = np.zeros((2, len(xg)))
-    layer = np.zeros((2, len(xg)))
-    for side, name in enumerate((a, b)):
-        evidence = db.evidence(name, bbox=bbox)
-        if len(evidence) == 0:
-            continue
-        rmse = db.version(name).stats.reduction.rmse_m or 0.0
-        sigma2, support, depth[side], layer[side] = _per_tile(evidence, xg, yg, level)
-        variance += np.nan_to_num(sigma2, nan=0.0) + rmse**2
-        seen &= support >= MIN_SUPPORT
-    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth, layer)
-
-
-def _per_tile(
-    evidence: TileEvidence, xg: NDArray[np.int64], yg: NDArray[np.int64], level: int
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Mean variance of the relief hidden in gaps, mean support, mean standing (how far the
-    surface may stand over the ground seen, 0 where nothing is held) and mean layer of the 2 m
-    tiles making up each tile of ``level``. A tile's own lift stays out: a wall built or a bank lifts the tiles
-    along its edges as vegetation does (the layer, the lift over an area, does not)."""
-    k = level // EVIDENCE_LEVEL
-    if k == 1:
-        e = evidence.at(xg, yg)
-    else:
-        fx, fy = _split(xg // EVIDENCE_LEVEL // k, yg // EVIDENCE_LEVEL // k, k)
-        e = evidence.at(fx * EVIDENCE_LEVEL, fy * EVIDENCE_LEVEL)
-    variance = (GAP_SLOPE * e.gap.astype(float)) ** 2
-    depth = e.standing
-    with np.errstate(invalid="ignore"):
-        mean = np.nanmean(variance.reshape(len(xg), k * k), axis=1)
-    per = (len(xg), k * k)
-    layer = np.nan_to_num(e.layer.astype(float)).reshape(per).mean(axis=1)
-    return mean, e.support.reshape(per).mean(axis=1), depth.reshape(per).mean(axis=1), layer
-
-
-def tile_nodes(xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> tuple[NDArray[np.float64], ...]:
-    """x and y of each tile's 3 × 3 nodes (corners, edge middles, centre), tile by tile."""
-    u, v = np.meshgrid([0.0, 0.5, 1.0], [0.0, 0.5, 1.0])
-    return ((xg[:, None] + level * u.ravel()[None, :]).ravel(), (yg[:, None] + level * v.ravel()[None, :]).ravel())
-
-
-def _lattice(db: Database, version: str, level: int, xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NodeLattice:
-    """The version's stored points around the tiles, on the level's node lattice: far enough
-    beyond them for the filters' two-sided relief (read once, for surfaces and typing)."""
-    grow = REACH_TILES * level + 2 * level
-    bbox = (float(xg.min() - grow), float(yg.min() - grow), float(xg.max() + grow), float(yg.max() + grow))
-    x, y, z, _ = db.points(version, level=level, bbox=bbox, ordered=False)
-    return node_lattice(x, y, z, level)
-
-
-def _ranges(n: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Lowest and highest stored node along the first axis (+inf and −inf where none)."""
-    lo, hi = nan_extreme(n, -1.0, axis=0), nan_extreme(n, 1.0, axis=0)
-    none = np.isnan(lo)
-    return np.where(none, np.inf, lo), np.where(none, -np.inf, hi)
-
-
-def _may_move(na: NDArray[np.float64], nb: NDArray[np.float64], lod: NDArray[np.float64]) -> NDArray[np.intp]:
-    """Per tile, at most how many of its 3 × 3 nodes can move beyond its ``lod`` (stored nodes
-    ``na``, ``nb`` of the two versions), without rebuilding the surfaces.
-
-    The rebuilt surface keeps stored corners as they are; an edge middle is a line between
-    stored nodes of its own edge, and the centre a convex mix of the tile's stored nodes.
-    So a corner counts when it moved, an edge middle when the ranges of its edge's stored
-    nodes allow it, and the centre when the tile's ranges do.
-    """
-    if len(na) == 0:
-        return np.zeros(0, np.intp)
-    last = SUBGRID - 1
-    # Tiles last: every reduction below runs across whole rows of tiles.
-    a, b = (np.ascontiguousarray(np.moveaxis(n, 0, -1)) for n in (na, nb))
-    with np.errstate(invalid="ignore"):
-        count = (np.abs(b[::last, ::last] - a[::last, ::last]) > lod).sum(axis=(0, 1))  # NaN: never
-        for edge in ((0, slice(None)), (last, slice(None)), (slice(None), 0), (slice(None), last)):
-            (lo_a, hi_a), (lo_b, hi_b) = _ranges(a[edge]), _ranges(b[edge])
-            count += np.maximum(hi_b - lo_a, hi_a - lo_b) > lod  # inf − inf (no stored node): not counted
-        (lo_a, hi_a), (lo_b, hi_b) = _ranges(a.reshape(-1, len(na))), _ranges(b.reshape(-1, len(nb)))
-        count += np.maximum(hi_b - lo_a, hi_a - lo_b) > lod
-    return np.asarray(count, np.intp)
-
-
-def _surface(nodes: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Heights of the line rebuild (:mod:`tdb.surface`) at the 3 × 3 nodes of each tile (NaN: no data)."""
-    mid = (SUBGRID - 1) // 2
-    cells = np.ravel_multi_index(
-        np.meshgrid(np.arange(0, SUBGRID, mid), np.arange(0, SUBGRID, mid), indexing="ij"), (SUBGRID, SUBGRID)
-    )
-    return line_rebuild_at(nodes, cells.ravel())
-
-
-@dataclass(frozen=True)
-class _Tiles:
-    """The tiles both versions hold at one level, their stored points and the LoD."""
-
-    xg: NDArray[np.int64]
-    yg: NDArray[np.int64]
-    before: NodeLattice
-    after: NodeLattice
-    judged: TileJudgement
-
-    def moved(self, which: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.bool_]]:
-        """The tiles ``which`` that can move (indices), the height change at their 3 × 3 nodes,
-        and whether each moved: at least three of its nine nodes beyond the LoD, since one node
-        alone is often an interpolation difference between the two sets of kept points."""
-        which = which[self.judged.seen[which]]
-        xg, yg = self.xg[which], self.yg[which]
-        na, nb = self.before.tile_nodes(xg, yg), self.after.tile_nodes(xg, yg)
-        keep = np.flatnonzero(_may_move(na, nb, self.lod[which]) >= 3)
-        surfaces = _surface(np.concatenate([na[keep], nb[keep]]))
-        dz = supported_change(surfaces[len(keep) :] - surfaces[: len(keep)], self.judged.depth[:, which[keep]])
-        with np.errstate(invalid="ignore"):
-            moved = (np.abs(dz) > self.lod[which[keep], None]).sum(axis=1) >= 3
-        return which[keep], dz, moved
-
-    @property
-    def lod(self) -> NDArray[np.float64]:
-        return self.judged.lod
 
 
 def _regions(
@@ -276,7 +118,7 @@ def _label_by_sign(
 
 
 def _grow(
-    tiles: _Tiles,
+    tiles: MovingTiles,
     valid: NDArray[np.bool_],
     tested: NDArray[np.intp],
     dz: NDArray[np.float64],
@@ -322,7 +164,7 @@ def _grow(
     return out, np.concatenate(parts)[row[out]]
 
 
-def detect(
+def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
     db: Database,
     before: str,
     after: str,
@@ -331,11 +173,14 @@ def detect(
     bbox: tuple[float, float, float, float] | None = None,
     min_tiles: int = 8,
     shift: Shift | None = None,
+    progress: Progress | None = None,
 ) -> list[dict[str, Any]]:
     """Changed regions between ``before`` and ``after`` as GeoJSON feature dicts.
 
     ``shift`` (:func:`queries.coregister.coregister`) aligns ``after`` to ``before`` first, and
-    the level of detection is then at least what the residual on stable ground allows.
+    the level of detection is then at least what the residual on stable ground allows. An area
+    too wide to read at once is read in parts (:mod:`queries.change_parts`); ``progress``
+    (:mod:`tdb.progress`) follows them.
 
     Raises
     ------
@@ -343,6 +188,60 @@ def detect(
         If the versions' horizontal coordinate systems differ.
     """
     check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=site(db, before))
+    lod = level_of_detection(db, before, after, shift=shift)
+    box = bbox or db.version(before).stats.bounds
+    parts = [] if box is None or fits_at_once(box, level) else part_boxes(db, before, level=level, bbox=bbox)
+    if len(parts) <= 1:
+        return _detect_at_once(
+            db, before, after, level=level, bbox=bbox, min_tiles=min_tiles, shift=shift, lod=lod
+        )
+    moved = moved_by_parts(
+        db, before, after, level=level, bbox=bbox, parts=parts, lod=lod, shift=shift, progress=progress
+    )
+    seeds = np.flatnonzero(moved.differ)
+    if len(seeds) == 0:
+        return []
+    strong, weak = _seeds(moved.xg[seeds], moved.yg[seeds], moved.dz[seeds], moved.lod[seeds], level, min_tiles)
+    if not strong and not weak:
+        return []
+    grown = reached(moved.xg, moved.yg, seeds[np.concatenate(strong + weak)], level)
+    from_strong = np.isin(grown, seeds[np.concatenate(strong)]) if strong else np.zeros(len(grown), bool)
+    t = _Grown(moved.xg[grown], moved.yg[grown], moved.dz[grown], moved.lod[grown], moved.layer[:, grown])
+    out = []
+    for batch in _batches(_sure_regions(t, from_strong, level, min_tiles), t, level):
+        idx = np.concatenate([m for m, *_ in batch])
+        lattices = {name: tile_lattice(db, name, level, t.xg[idx], t.yg[idx]) for name in (before, after)}
+        if shift is not None and shift.applied:
+            lattices[after] = shifted_lattice(lattices[after], shift)
+        out += _features(db, (before, after), batch, t, lattices, level=level)
+    return out
+
+
+@dataclass(frozen=True)
+class _Grown:
+    """The tiles of the grown regions: corners, node height changes, LoD and layers."""
+
+    xg: NDArray[np.int64]
+    yg: NDArray[np.int64]
+    dz: NDArray[np.float64]
+    lod: NDArray[np.float64]
+    layer: NDArray[np.float64]
+
+
+Region = tuple[NDArray[np.intp], float, bool, float]  # members, mean dz, sure, LoD
+
+
+def _detect_at_once(  # noqa: PLR0913 (the two versions, where, and how)
+    db: Database,
+    before: str,
+    after: str,
+    *,
+    level: int,
+    bbox: tuple[float, float, float, float] | None,
+    min_tiles: int,
+    shift: Shift | None,
+    lod: float,
+) -> list[dict[str, Any]]:
     xg, yg, c1, c2 = shared_tiles(db, before, after, level=level, bbox=bbox)
     if len(xg) == 0:
         return []
@@ -351,48 +250,90 @@ def detect(
     differ = np.flatnonzero((c1 != c2) & valid)
     if len(differ) == 0:
         return []
-    lod = level_of_detection(db, before, after, shift=shift)
-    lattices = {name: _lattice(db, name, level, xg[differ], yg[differ]) for name in (before, after)}
+    lattices = {name: tile_lattice(db, name, level, xg[differ], yg[differ]) for name in (before, after)}
     if shift is not None and shift.applied:
         lattices[after] = shifted_lattice(lattices[after], shift)
-    tiles = _Tiles(
+    tiles = MovingTiles(
         xg, yg, lattices[before], lattices[after], tile_lod(db, before, after, xg, yg, level=level, lod=lod)
     )
     tested, dz, moved = tiles.moved(differ)
     if not moved.any():
         return []
     first = tested[moved]
-    candidates = _regions(xg[first], yg[first], dz[moved], tiles.lod[first], level, min_tiles)
-    # Small regions grow too; they are kept at the end only where a closed form came or went.
-    strong = [first[m] for m, _, big, _ in candidates if big]
-    weak = [first[m] for m, d, big, at in candidates if not big and abs(d) >= CLOSED_DZ * at]
+    strong, weak = _seeds(xg[first], yg[first], dz[moved], tiles.lod[first], level, min_tiles)
     if not strong and not weak:
         return []
-    grown, dz = _grow(tiles, valid, tested, dz, moved, np.concatenate(strong + weak), level)
-    from_strong = np.isin(grown, np.concatenate(strong)) if strong else np.zeros(len(grown), bool)
-    lods = tiles.lod[grown]
-    layers = tiles.judged.layer[:, grown]
-    xg, yg = xg[grown], yg[grown]
-    # A grown region is sure where it holds a strong seed, or where it is large and moved as a
-    # whole by a strong change: a form removed from a steep slope changes few categories, so its
-    # seeds are weak, but its grown surface still says plainly that it moved.
-    regions = [
+    seeds = first[np.concatenate(strong + weak)]
+    grown, dz = _grow(tiles, valid, tested, dz, moved, seeds, level)
+    from_strong = np.isin(grown, first[np.concatenate(strong)]) if strong else np.zeros(len(grown), bool)
+    t = _Grown(xg[grown], yg[grown], dz, tiles.lod[grown], tiles.judged.layer[:, grown])
+    return _features(
+        db, (before, after), _sure_regions(t, from_strong, level, min_tiles), t, lattices, level=level
+    )
+
+
+def _seeds(
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    dz: NDArray[np.float64],
+    lod: NDArray[np.float64],
+    level: int,
+    min_tiles: int,
+) -> tuple[list[NDArray[np.intp]], list[NDArray[np.intp]]]:
+    """The regions of the moved tiles whose category differs that grow: strong (large, or a
+    strong change), and weak (small; kept at the end only where a closed form came or went)."""
+    candidates = _regions(xg, yg, dz, lod, level, min_tiles)
+    strong = [m for m, _, big, _ in candidates if big]
+    weak = [m for m, d, big, at in candidates if not big and abs(d) >= CLOSED_DZ * at]
+    return strong, weak
+
+
+def _sure_regions(t: _Grown, from_strong: NDArray[np.bool_], level: int, min_tiles: int) -> list[Region]:
+    """The regions of the grown tiles, each with whether it is sure: where it holds a strong
+    seed, or where it is large and moved as a whole by a strong change (a form removed from a
+    steep slope changes few categories, so its seeds are weak, but its grown surface still says
+    plainly that it moved)."""
+    return [
         (members, mean_dz, big and (bool(from_strong[members].any()) or abs(mean_dz) >= STRONG * at), at)
-        for members, mean_dz, big, at in _regions(xg, yg, dz, lods, level, min_tiles)
+        for members, mean_dz, big, at in _regions(t.xg, t.yg, t.dz, t.lod, level, min_tiles)
         if big or abs(mean_dz) >= CLOSED_DZ * at
     ]
+
+
+def _batches(regions: list[Region], t: _Grown, level: int) -> list[list[Region]]:
+    """The regions in batches, those that start in one part together (:mod:`queries.parts`)."""
+    side = part_side(level)
+    batches: dict[tuple[int, int], list[Region]] = {}
+    for r in regions:
+        first = r[0][0]
+        batches.setdefault((int(t.xg[first] // side), int(t.yg[first] // side)), []).append(r)
+    return [batches[k] for k in sorted(batches)]
+
+
+def _features(
+    db: Database,
+    versions: tuple[str, str],
+    regions: list[Region],
+    t: _Grown,
+    lattices: dict[str, NodeLattice],
+    *,
+    level: int,
+) -> list[dict[str, Any]]:
+    """The regions as typed GeoJSON features: those that are sure, or where a closed form came
+    or went, and whose higher surface lies in no layer thicker than their LoD."""
     if not regions:
         return []
+    before, after = versions
     groups = [m for m, *_ in regions]
-    found = {name: _matched(db, name, xg, yg, groups, level, lattices[name]) for name in (before, after)}
+    found = {name: _matched(db, name, t.xg, t.yg, groups, level, lattices[name]) for name in versions}
     out = []
     for (members, mean_dz, sure, region_lod), was, now in zip(regions, found[before], found[after]):
         if not sure and not _closed_form_changed(was, now, mean_dz):
             continue
-        if _under_a_layer(layers, members, mean_dz, region_lod):
+        if _under_a_layer(t.layer, members, mean_dz, region_lod):
             continue
-        x, y = xg[members], yg[members]
-        geom = outline(x, y, dz[members], lods[members], mean_dz, level=level)
+        x, y = t.xg[members], t.yg[members]
+        geom = outline(x, y, t.dz[members], t.lod[members], mean_dz, level=level)
         compact = elongation(x.astype(float), y.astype(float), level=level) < LINE_ELONGATION
         props = {
             "kind": _kind(was, now, mean_dz, compact=compact),
@@ -503,17 +444,6 @@ def _member(
     return out
 
 
-def _split(
-    kx: NDArray[np.int64], ky: NDArray[np.int64], factor: int
-) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Keys of the factor × factor finer tiles making up each tile, tile by tile."""
-    d = np.arange(factor)
-    shape = (len(kx), factor, factor)
-    fx = np.broadcast_to(kx[:, None, None] * factor + d[None, None, :], shape)
-    fy = np.broadcast_to(ky[:, None, None] * factor + d[None, :, None], shape)
-    return fx.ravel(), fy.ravel()
-
-
 def _matched(
     db: Database,
     version: str,
@@ -558,7 +488,7 @@ def _matched(
             lat = node_lattice(px, py, pz, lv)
         # Regions and matches meet on the finer of the two tile lattices.
         fine = min(lv, level)
-        rx, ry = _split(xg[members] // level, yg[members] // level, level // fine)
+        rx, ry = split_keys(xg[members] // level, yg[members] // level, level // fine)
         region_owner = np.repeat(owner, (level // fine) ** 2)
         for name, *_ in RULES:
             flt = filters[name]
@@ -566,7 +496,7 @@ def _matched(
                 continue
             found = match_tiles(txg, tyg, code, lat, flt, level=lv, shapes=False)
             tiles = np.concatenate([m.tiles for m in found]) if found else np.zeros(0, np.intp)
-            mx, my = _split(txg[tiles] // lv, tyg[tiles] // lv, lv // fine)
+            mx, my = split_keys(txg[tiles] // lv, tyg[tiles] // lv, lv // fine)
             inside = _member(rx, ry, mx, my)
             area = np.bincount(region_owner[inside], minlength=len(regions)) * float(fine * fine)
             for k in range(len(regions)):  # the level that matches most of the region counts

@@ -93,9 +93,9 @@ def part_candidates(
     found: list[Candidates] = []
     report("parts", 0, len(parts))
     for k, part in enumerate(parts):
-        xg, yg, code = db.tiles(version, level=level, bbox=_clipped(_grown(part, 2 * level), bbox), ordered=False)
+        xg, yg, code = db.tiles(version, level=level, bbox=clipped(_grown(part, 2 * level), bbox), ordered=False)
         own, facing = candidates(xg, yg, code, flt, level)
-        mine = (own | facing) & (xg >= part[0]) & (xg < part[2]) & (yg >= part[1]) & (yg < part[3])
+        mine = (own | facing) & holds(part, xg, yg)
         found.append(Candidates(xg[mine], yg[mine], code[mine], own[mine], facing[mine]))
         report("parts", k + 1, len(parts))
     return Candidates(*(np.concatenate([getattr(c, f) for c in found]) for f in Candidates.__dataclass_fields__))
@@ -118,12 +118,12 @@ def batches(
     for b in range(int(which.max()) + 1):
         members = [groups[k] for k in np.flatnonzero(which.ravel() == b)]
         idx = np.concatenate(members)
-        box = _clipped(_grown(_tiles_box(tiles, idx, level), grow), limit)
+        box = clipped(_grown(_tiles_box(tiles, idx, level), grow), limit)
         if fits_at_once(box, level) or len(members) == 1:
             yield idx, box
             continue
         for g in members:
-            yield g, _clipped(_grown(_tiles_box(tiles, g, level), grow), limit)
+            yield g, clipped(_grown(_tiles_box(tiles, g, level), grow), limit)
 
 
 def _tiles_box(tiles: Candidates, idx: NDArray[np.intp], level: int) -> Box:
@@ -135,7 +135,14 @@ def _grown(box: Box, by: float) -> Box:
     return (box[0] - by, box[1] - by, box[2] + by, box[3] + by)
 
 
-def _clipped(box: Box, limit: Box | None) -> Box:
+def holds(part: Box, xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Which tiles (lower-left corners ``xg``, ``yg``) belong to ``part``: those whose corner lies
+    in it. A tile lies whole in the part its corner lies in (parts are whole tile blocks)."""
+    return (xg >= part[0]) & (xg < part[2]) & (yg >= part[1]) & (yg < part[3])
+
+
+def clipped(box: Box, limit: Box | None) -> Box:
+    """``box`` cut to ``limit`` (``box`` where None)."""
     if limit is None:
         return box
     return (max(box[0], limit[0]), max(box[1], limit[1]), min(box[2], limit[2]), min(box[3], limit[3]))

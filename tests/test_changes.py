@@ -17,7 +17,9 @@ import tdb
 from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
 from ingest.synth.scene import Feature
-from queries.changes import _kind, _may_move, _surface, detect, level_of_detection, outline
+from queries.changes import _kind, detect, level_of_detection, outline
+from queries.tile_change import may_move as _may_move
+from queries.tile_change import rebuilt_surface as _surface
 from tdb.cli import main
 from tdb.cloud import from_arrays
 
@@ -299,7 +301,7 @@ def test_dem_of_difference_shows_the_new_mound_and_nothing_else(tmp_path):
 
 def test_no_tiles_to_judge_is_no_tile_moved() -> None:
     """Growing a region may leave no unknown tiles beside it: judging none is an empty answer."""
-    from queries.changes import _may_move
+    from queries.tile_change import may_move as _may_move
 
     empty = np.zeros((0, 5, 5))
     assert _may_move(empty, empty, np.zeros(0)).shape == (0,)

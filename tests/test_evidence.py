@@ -13,7 +13,8 @@ from ingest.dtm import dense_model
 from ingest.evidence import envelope_lift, layer_window, noise_lift, tile_depth, tile_evidence
 from ingest.pipeline import ingest
 from queries import changes
-from queries.changes import detect, tile_lod
+from queries.changes import detect
+from queries.tile_change import tile_lod
 from tdb.cloud import from_arrays
 from tdb.evidence import GAP_SLOPE, MIN_SUPPORT, SUPPORT_SPACINGS, TileEvidence, supported_change
 
@@ -216,7 +217,7 @@ def test_vegetation_taken_for_ground_is_no_rise_but_a_platform_is(tmp_path, monk
     reported, the shrubs, whose survey saw the ground through them, are not. Both surveys as
     noisy as TTP 2019's (0.08 m), so the level of detection is a real survey's."""
 
-    from queries import changes
+    from queries import changes, tile_change
 
     rng = np.random.default_rng(21)
     before = _ground(size=120, density=3, seed=3, noise=0.08)
@@ -234,7 +235,7 @@ def test_vegetation_taken_for_ground_is_no_rise_but_a_platform_is(tmp_path, monk
     assert raised > 0.95 * 24 * 24
     assert shrubs < 0.15 * 28 * 28
     # the case at hand: the filter kept the shrubs' top, and the surfaces alone report them
-    monkeypatch.setattr(changes, "supported_change", lambda dz, depth: dz)
+    monkeypatch.setattr(tile_change, "supported_change", lambda dz, depth: dz)
     monkeypatch.setattr(changes, "_under_a_layer", lambda *_: False)
     uncut = _reported_in(db, *boxes)[1]
     assert uncut > 0.25 * 28 * 28 and uncut > 2 * shrubs

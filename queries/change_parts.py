@@ -1,0 +1,125 @@
+"""Change detection over an area too wide to read at once: the tiles that moved, part by part.
+
+Two surveys of a county hold hundreds of millions of tiles each; read at once, their tiles and
+the lattices of their kept points fill the memory, and the node lattice over the whole area is
+refused. Whether a tile moved depends on its own nodes and ground evidence alone
+(:mod:`queries.tile_change`), so it is found part by part (:mod:`queries.parts`), every tile
+both versions hold with data tested. Only the tiles that moved are kept: few beside the tiles.
+The regions are then grown and typed from them (:func:`queries.changes.detect`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from queries.coregister import Shift, shifted_lattice
+from queries.grids import shared_tiles
+from queries.parts import Box, clipped, holds
+from queries.tile_change import MovingTiles, tile_lattice, tile_lod
+from tdb.categories import NO_DATA
+from tdb.database import Database
+from tdb.progress import Progress, or_silent
+from tdb.tiles import TileIndex
+
+NEIGHBOURS = np.array([(di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj])
+
+
+@dataclass(frozen=True)
+class MovedTiles:
+    """The tiles of a level whose surface moved beyond their level of detection: lower-left
+    corners, the height change at their 3 × 3 nodes (tiles × 9), their LoD, the layer each
+    version's surface lies in (2 × tiles, :class:`queries.tile_change.TileJudgement`), and whether
+    their category differs (the tiles a change starts from)."""
+
+    xg: NDArray[np.int64]
+    yg: NDArray[np.int64]
+    dz: NDArray[np.float64]
+    lod: NDArray[np.float64]
+    layer: NDArray[np.float64]
+    differ: NDArray[np.bool_]
+
+    @staticmethod
+    def joined(parts: list[MovedTiles]) -> MovedTiles:
+        cat = np.concatenate
+        return MovedTiles(
+            cat([p.xg for p in parts]),
+            cat([p.yg for p in parts]),
+            cat([p.dz for p in parts]) if parts else np.zeros((0, 9)),
+            cat([p.lod for p in parts]),
+            cat([p.layer for p in parts], axis=1) if parts else np.zeros((2, 0)),
+            cat([p.differ for p in parts]),
+        )
+
+
+def moved_by_parts(  # noqa: PLR0913 (the two versions, where, and how)
+    db: Database,
+    before: str,
+    after: str,
+    *,
+    level: int,
+    bbox: Box | None,
+    parts: list[Box],
+    lod: float,
+    shift: Shift | None = None,
+    progress: Progress | None = None,
+) -> MovedTiles:
+    """The tiles both versions hold with data at ``level`` in ``bbox`` whose surface moved beyond
+    their level of detection (at least ``lod``), ``after`` aligned by ``shift``, found in ``parts``
+    (:func:`queries.parts.part_boxes`)."""
+    report = or_silent(progress)
+    found = []
+    report("parts", 0, len(parts))
+    for k, part in enumerate(parts):
+        found.append(_moved_in(db, before, after, part, level=level, bbox=bbox, lod=lod, shift=shift))
+        report("parts", k + 1, len(parts))
+    return MovedTiles.joined([f for f in found if f is not None])
+
+
+def _moved_in(  # noqa: PLR0913 (the two versions, the part, and how)
+    db: Database,
+    before: str,
+    after: str,
+    part: Box,
+    *,
+    level: int,
+    bbox: Box | None,
+    lod: float,
+    shift: Shift | None,
+) -> MovedTiles | None:
+    xg, yg, c1, c2 = shared_tiles(db, before, after, level=level, bbox=clipped(part, bbox))
+    mine = holds(part, xg, yg) & (c1 != NO_DATA) & (c2 != NO_DATA)
+    if not mine.any():
+        return None
+    xg, yg, differ = xg[mine], yg[mine], (c1 != c2)[mine]
+    lattices = [tile_lattice(db, name, level, xg, yg) for name in (before, after)]
+    if shift is not None and shift.applied:
+        lattices[1] = shifted_lattice(lattices[1], shift)
+    judged = tile_lod(db, before, after, xg, yg, level=level, lod=lod)
+    tested, dz, moved = MovingTiles(xg, yg, lattices[0], lattices[1], judged).moved(np.arange(len(xg)))
+    t = tested[moved]
+    return MovedTiles(xg[t], yg[t], dz[moved], judged.lod[t], judged.layer[:, t], differ[t])
+
+
+def reached(xg: NDArray[np.int64], yg: NDArray[np.int64], seeds: NDArray[np.intp], level: int) -> NDArray[np.intp]:
+    """The tiles (indices, ascending) that touch ``seeds`` through a chain of the tiles ``xg``,
+    ``yg`` (8-neighbours on the tile lattice): the seeds grown over every tile that moved beside
+    them, ring by ring, until none is added."""
+    if len(seeds) == 0:
+        return np.zeros(0, np.intp)
+    ti, tj = xg // level, yg // level
+    index = TileIndex(ti, tj)
+    rows, cols = [], []
+    for di, dj in NEIGHBOURS:
+        other = index.find(ti + di, tj + dj)
+        k = np.flatnonzero(other >= 0)
+        rows.append(k)
+        cols.append(other[k])
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(len(r)), (r, c)), shape=(len(xg), len(xg)))
+    _, label = connected_components(graph, directed=False)
+    return np.flatnonzero(np.isin(label, np.unique(label[seeds])))

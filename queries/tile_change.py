@@ -1,0 +1,196 @@
+"""Whether each tile's surface moved between two versions, beyond its level of detection.
+
+The tile-level half of change detection (:mod:`queries.changes`): the level of detection from
+both surveys' noise and their surfaces' errors, grown per tile by the ground evidence; each
+version's stored points around the tiles on the level's node lattice; and the test of a tile,
+at its 3 × 3 nodes of the surfaces rebuilt from kept points. A tile's answer depends on its own
+nodes and evidence alone, so it is the same whatever area is read around it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from queries.coregister import Shift
+from queries.match import REACH_TILES
+from queries.relief import nan_extreme
+from tdb.database import Database
+from tdb.evidence import GAP_SLOPE, MIN_SUPPORT, TileEvidence, supported_change
+from tdb.evidence import LEVEL as EVIDENCE_LEVEL
+from tdb.surface import line_rebuild_at
+from tdb.tiles import SUBGRID, NodeLattice, node_lattice
+
+MIN_LOD = 0.10
+
+
+def level_of_detection(db: Database, a: str, b: str, *, shift: Shift | None = None) -> float:
+    """95 % level of detection from both surveys' ground noise and the error of their
+    surfaces rebuilt from the kept points (the reduction RMSE), at least ``MIN_LOD``; with a
+    co-registration ``shift``, at least 1.96 × the residual spread it left on stable ground."""
+    residual = 1.96 * shift.nmad if shift is not None and np.isfinite(shift.nmad) else 0.0
+    return max(residual, _noise_lod(db, a, b))
+
+
+def _noise_lod(db: Database, a: str, b: str) -> float:
+    terms = []
+    for name in (a, b):
+        stats = db.version(name).stats
+        noise = stats.noise_m if stats.noise_m is not None else 0.05
+        terms += [noise, stats.reduction.rmse_m or 0.0]
+    return max(MIN_LOD, 1.96 * float(np.sqrt(np.sum(np.square(terms)))))
+
+
+@dataclass(frozen=True)
+class TileJudgement:
+    """Per tile of a level, what both versions' ground evidence lets a change claim."""
+
+    lod: NDArray[np.float64]  # m: the level of detection
+    seen: NDArray[np.bool_]  # both versions saw the tile's ground well enough
+    depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface may stand above its ground
+    layer: NDArray[np.float64]  # (2, tiles) m: the layer each version's surface lies in (tdb.evidence)
+
+
+def tile_lod(
+    db: Database, a: str, b: str, xg: NDArray[np.int64], yg: NDArray[np.int64], *, level: int, lod: float
+) -> TileJudgement:
+    """Per tile of ``level`` (corners ``xg``, ``yg``), the level of detection grown by both
+    versions' ground evidence (:mod:`tdb.evidence`), at least ``lod``; whether both versions
+    saw the tile well enough for a change to be claimed; and each version's depth of surface over
+    its ground returns. A coarser tile takes the mean of its 2 m tiles. Where a version holds no
+    evidence (stored before it was kept) the tile keeps ``lod``, counts as seen and has depth 0."""
+    bbox = (float(xg.min()), float(yg.min()), float(xg.max() + level), float(yg.max() + level))
+    variance = np.zeros(len(xg))
+    seen = np.ones(len(xg), bool)
+    depth = np.zeros((2, len(xg)))
+    layer = np.zeros((2, len(xg)))
+    for side, name in enumerate((a, b)):
+        evidence = db.evidence(name, bbox=bbox)
+        if len(evidence) == 0:
+            continue
+        rmse = db.version(name).stats.reduction.rmse_m or 0.0
+        sigma2, support, depth[side], layer[side] = _per_tile(evidence, xg, yg, level)
+        variance += np.nan_to_num(sigma2, nan=0.0) + rmse**2
+        seen &= support >= MIN_SUPPORT
+    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth, layer)
+
+
+def _per_tile(
+    evidence: TileEvidence, xg: NDArray[np.int64], yg: NDArray[np.int64], level: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Mean variance of the relief hidden in gaps, mean support, mean standing (how far the
+    surface may stand over the ground seen, 0 where nothing is held) and mean layer of the 2 m
+    tiles making up each tile of ``level``. A tile's own lift stays out: a wall built or a bank lifts the tiles
+    along its edges as vegetation does (the layer, the lift over an area, does not)."""
+    k = level // EVIDENCE_LEVEL
+    if k == 1:
+        e = evidence.at(xg, yg)
+    else:
+        fx, fy = split_keys(xg // EVIDENCE_LEVEL // k, yg // EVIDENCE_LEVEL // k, k)
+        e = evidence.at(fx * EVIDENCE_LEVEL, fy * EVIDENCE_LEVEL)
+    variance = (GAP_SLOPE * e.gap.astype(float)) ** 2
+    depth = e.standing
+    with np.errstate(invalid="ignore"):
+        mean = np.nanmean(variance.reshape(len(xg), k * k), axis=1)
+    per = (len(xg), k * k)
+    layer = np.nan_to_num(e.layer.astype(float)).reshape(per).mean(axis=1)
+    return mean, e.support.reshape(per).mean(axis=1), depth.reshape(per).mean(axis=1), layer
+
+
+def tile_nodes(xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> tuple[NDArray[np.float64], ...]:
+    """x and y of each tile's 3 × 3 nodes (corners, edge middles, centre), tile by tile."""
+    u, v = np.meshgrid([0.0, 0.5, 1.0], [0.0, 0.5, 1.0])
+    return ((xg[:, None] + level * u.ravel()[None, :]).ravel(), (yg[:, None] + level * v.ravel()[None, :]).ravel())
+
+
+def tile_lattice(
+    db: Database, version: str, level: int, xg: NDArray[np.int64], yg: NDArray[np.int64]
+) -> NodeLattice:
+    """The version's stored points around the tiles, on the level's node lattice: far enough
+    beyond them for the filters' two-sided relief (read once, for surfaces and typing)."""
+    grow = REACH_TILES * level + 2 * level
+    bbox = (float(xg.min() - grow), float(yg.min() - grow), float(xg.max() + grow), float(yg.max() + grow))
+    x, y, z, _ = db.points(version, level=level, bbox=bbox, ordered=False)
+    return node_lattice(x, y, z, level)
+
+
+def _ranges(n: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Lowest and highest stored node along the first axis (+inf and −inf where none)."""
+    lo, hi = nan_extreme(n, -1.0, axis=0), nan_extreme(n, 1.0, axis=0)
+    none = np.isnan(lo)
+    return np.where(none, np.inf, lo), np.where(none, -np.inf, hi)
+
+
+def may_move(na: NDArray[np.float64], nb: NDArray[np.float64], lod: NDArray[np.float64]) -> NDArray[np.intp]:
+    """Per tile, at most how many of its 3 × 3 nodes can move beyond its ``lod`` (stored nodes
+    ``na``, ``nb`` of the two versions), without rebuilding the surfaces.
+
+    The rebuilt surface keeps stored corners as they are; an edge middle is a line between
+    stored nodes of its own edge, and the centre a convex mix of the tile's stored nodes.
+    So a corner counts when it moved, an edge middle when the ranges of its edge's stored
+    nodes allow it, and the centre when the tile's ranges do.
+    """
+    if len(na) == 0:
+        return np.zeros(0, np.intp)
+    last = SUBGRID - 1
+    # Tiles last: every reduction below runs across whole rows of tiles.
+    a, b = (np.ascontiguousarray(np.moveaxis(n, 0, -1)) for n in (na, nb))
+    with np.errstate(invalid="ignore"):
+        count = (np.abs(b[::last, ::last] - a[::last, ::last]) > lod).sum(axis=(0, 1))  # NaN: never
+        for edge in ((0, slice(None)), (last, slice(None)), (slice(None), 0), (slice(None), last)):
+            (lo_a, hi_a), (lo_b, hi_b) = _ranges(a[edge]), _ranges(b[edge])
+            count += np.maximum(hi_b - lo_a, hi_a - lo_b) > lod  # inf − inf (no stored node): not counted
+        (lo_a, hi_a), (lo_b, hi_b) = _ranges(a.reshape(-1, len(na))), _ranges(b.reshape(-1, len(nb)))
+        count += np.maximum(hi_b - lo_a, hi_a - lo_b) > lod
+    return np.asarray(count, np.intp)
+
+
+def rebuilt_surface(nodes: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Heights of the line rebuild (:mod:`tdb.surface`) at the 3 × 3 nodes of each tile (NaN: no data)."""
+    mid = (SUBGRID - 1) // 2
+    cells = np.ravel_multi_index(
+        np.meshgrid(np.arange(0, SUBGRID, mid), np.arange(0, SUBGRID, mid), indexing="ij"), (SUBGRID, SUBGRID)
+    )
+    return line_rebuild_at(nodes, cells.ravel())
+
+
+@dataclass(frozen=True)
+class MovingTiles:
+    """The tiles both versions hold at one level, their stored points and the LoD."""
+
+    xg: NDArray[np.int64]
+    yg: NDArray[np.int64]
+    before: NodeLattice
+    after: NodeLattice
+    judged: TileJudgement
+
+    def moved(self, which: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.bool_]]:
+        """The tiles ``which`` that can move (indices), the height change at their 3 × 3 nodes,
+        and whether each moved: at least three of its nine nodes beyond the LoD, since one node
+        alone is often an interpolation difference between the two sets of kept points."""
+        which = which[self.judged.seen[which]]
+        xg, yg = self.xg[which], self.yg[which]
+        na, nb = self.before.tile_nodes(xg, yg), self.after.tile_nodes(xg, yg)
+        keep = np.flatnonzero(may_move(na, nb, self.lod[which]) >= 3)
+        surfaces = rebuilt_surface(np.concatenate([na[keep], nb[keep]]))
+        dz = supported_change(surfaces[len(keep) :] - surfaces[: len(keep)], self.judged.depth[:, which[keep]])
+        with np.errstate(invalid="ignore"):
+            moved = (np.abs(dz) > self.lod[which[keep], None]).sum(axis=1) >= 3
+        return which[keep], dz, moved
+
+    @property
+    def lod(self) -> NDArray[np.float64]:
+        return self.judged.lod
+
+
+def split_keys(
+    kx: NDArray[np.int64], ky: NDArray[np.int64], factor: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Keys of the factor × factor finer tiles making up each tile, tile by tile."""
+    d = np.arange(factor)
+    shape = (len(kx), factor, factor)
+    fx = np.broadcast_to(kx[:, None, None] * factor + d[None, None, :], shape)
+    fy = np.broadcast_to(ky[:, None, None] * factor + d[None, :, None], shape)
+    return fx.ravel(), fy.ravel()

@@ -1,0 +1,71 @@
+"""Change detection over an area too wide to read at once goes part by part, with the same regions."""
+
+from __future__ import annotations
+
+from unittest import mock
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+import queries.parts
+import tdb
+from ingest.pipeline import ingest
+from ingest.synth import apply_changes, make_scene, sample
+from queries.change_parts import reached
+from queries.changes import detect
+
+
+@pytest.fixture(scope="module")
+def pair(tmp_path_factory):
+    """A 300 m scene and its re-survey after a round of changes, as versions a and b."""
+    scene = make_scene(seed=9, size=300)
+    later, _ = apply_changes(scene, seed=9)
+    db = tdb.open(tmp_path_factory.mktemp("change-parts") / "p.tdb", create=True)
+    ingest(sample(scene, density=2, seed=9), db, version="a")
+    ingest(sample(later, density=2, seed=10), db, version="b")
+    return db
+
+
+def _key(features):
+    props = [f["properties"] for f in features]
+    return sorted((p["kind"], p["tiles"], round(p["area"], 6), p["dz"]) for p in props)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("level", [2, 4])
+def test_a_diff_by_parts_finds_the_regions_of_the_diff_at_once(pair, level):
+    whole = detect(pair, "a", "b", level=level)
+    assert len(whole) >= 3
+    seen = []
+    with mock.patch.multiple(queries.parts, PART=256, PART_NODES=1000):
+        parted = detect(pair, "a", "b", level=level, progress=lambda *a: seen.append(a))
+    assert _key(parted) == _key(whole)
+    assert len(seen) > 2 and seen[-1][0] == "parts" and seen[-1][1] == seen[-1][2] >= 2
+
+
+@pytest.mark.slow
+def test_a_diff_by_parts_of_a_box_finds_the_regions_of_the_box_at_once(pair):
+    x0, y0 = pair.version("a").stats.bounds[:2]
+    box = (x0 + 40.0, y0 + 30.0, x0 + 290.0, y0 + 250.0)
+    whole = detect(pair, "a", "b", bbox=box)
+    assert whole
+    with mock.patch.multiple(queries.parts, PART=256, PART_NODES=1000):
+        assert _key(detect(pair, "a", "b", bbox=box)) == _key(whole)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), share=st.floats(0.1, 0.6), level=st.sampled_from([2, 4]))
+def test_the_seeds_reach_the_moved_tiles_that_touch_them(seed, share, level):
+    rng = np.random.default_rng(seed)
+    grid = rng.random((30, 40)) < share
+    tj, ti = np.nonzero(grid)
+    order = rng.permutation(len(ti))
+    ti, tj = ti[order], tj[order]
+    seeds = rng.choice(len(ti), size=min(3, len(ti)), replace=False) if len(ti) else np.zeros(0, np.intp)
+    got = reached((ti * level - 50 * level).astype(np.int64), (tj * level).astype(np.int64), seeds, level)
+    labels, _ = ndimage.label(grid, structure=np.ones((3, 3)))
+    keep = np.unique(labels[tj[seeds], ti[seeds]])
+    assert np.array_equal(got, np.flatnonzero(np.isin(labels[tj, ti], keep)))
