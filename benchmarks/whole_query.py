@@ -1,11 +1,12 @@
 """A feature query over a whole version of many km², by parts and read at once.
 
 The database is built as ``big_db`` builds it: the 1 km² synthetic pair of ``changes_synth``
-ingested once (4 points/m²), its first version written N × N times side by side, 1024 m apart.
+ingested once (4 points/m²), both versions written N × N times side by side, 1024 m apart.
 Then ``SELECT ditch FROM before`` and ``SELECT ridge FROM before`` run over the whole version,
+and ``tdb diff before after`` (co-registration, then change detection) over the whole area,
 each in a fresh process: by parts (:mod:`queries.parts`, as shipped) and, where asked, read at
-once (the parts' lattice limit lifted), with their seconds, peak RSS and matches, and whether
-both ways found the same matches.
+once (the parts' lattice limit lifted), with their seconds, peak RSS and matches (regions),
+and whether both ways found the same.
 
     python -m benchmarks.whole_query [--copies 8] [--at-once] [--dir DIR]
 
@@ -26,7 +27,7 @@ from benchmarks.big_db import build
 from benchmarks.changes_synth import km2_pair
 from benchmarks.common import peak_rss_mib, save
 
-FILTERS = ("ditch", "ridge")
+FILTERS = ("ditch", "ridge", "diff")
 
 
 def _query(path: str, name: str, at_once: bool, out: Any) -> None:
@@ -44,13 +45,39 @@ def _query(path: str, name: str, at_once: bool, out: Any) -> None:
     out.put({"seconds": seconds, "matches": len(matches), "peak_rss_mib": peak_rss_mib(), "key": key})
 
 
+def _diff(path: str, name: str, at_once: bool, out: Any) -> None:
+    import queries.parts
+    from queries.changes import detect
+    from queries.coregister import coregister
+
+    if at_once:
+        queries.parts.PART_NODES = 10**12
+    with tdb.open(path, readonly=True) as db:
+        t0 = time.perf_counter()
+        shift = coregister(db, "before", "after")
+        t1 = time.perf_counter()
+        found = detect(db, "before", "after", shift=shift)
+        seconds = time.perf_counter() - t1
+    props = [f["properties"] for f in found]
+    key = sorted((p["kind"], p["tiles"], round(p["area"], 6), p["dz"]) for p in props)
+    out.put(
+        {
+            "seconds": seconds,
+            "coregister_s": t1 - t0,
+            "matches": len(found),
+            "peak_rss_mib": peak_rss_mib(),
+            "key": key,
+        }
+    )
+
+
 def _build(directory: str, copies: int, out: Any) -> None:
     work = Path(directory)
     km2 = work / "km2.tdb"
     if not km2.exists():
         km2 = km2_pair(work, density=4.0)
     with tdb.open(km2) as source, tdb.open(work / f"whole{copies}.tdb", create=True) as db:
-        build(source, db, copies, 1)
+        build(source, db, copies, copies)
         out.put({"bounds": db.version("before").stats.bounds, "rows": db.count("before", table="c2")})
 
 
@@ -77,10 +104,11 @@ def main() -> None:
     target, bounds = a.dir / f"whole{a.copies}.tdb", built["bounds"]
     runs = []
     for name in FILTERS:
-        parted = in_process(_query, str(target), name, False)
+        run = _diff if name == "diff" else _query
+        parted = in_process(run, str(target), name, False)
         row: dict[str, Any] = {"filter": name, "parts": {k: v for k, v in parted.items() if k != "key"}}
         if a.at_once:
-            whole = in_process(_query, str(target), name, True)
+            whole = in_process(run, str(target), name, True)
             row["at_once"] = {k: v for k, v in whole.items() if k != "key"}
             row["same_matches"] = whole["key"] == parted["key"]
         print(json.dumps(row), flush=True)

@@ -68,6 +68,7 @@ def command(
     from queries.coregister import coregister as align
     from queries.coregister import site
     from queries.dod import describe, difference_of_surfaces
+    from tdb.cli.progress import Bars
 
     check_output(fmt, out, layer=layer, append=append)
     check_files(png=png, tif=dod)
@@ -82,7 +83,8 @@ def command(
         shift = align(db, before, after, level=level, bbox=bbox, method=coregister)
         if shift.method is not Coregistration.NONE:
             click.echo(f"co-registration ({shift.method}): {shift.describe()}", err=True)
-        found = detect(db, before, after, level=level, bbox=bbox, shift=shift)
+        with Bars(unit="part") as bars:
+            found = detect(db, before, after, level=level, bbox=bbox, shift=shift, progress=bars)
         crs = db.crs(after)
         lod = level_of_detection(db, before, after, shift=shift)
         if dod:
