@@ -662,13 +662,15 @@ def whole_query_section(out: list[str]) -> None:
     if not docs:
         return
     out += [
-        "## A query over a whole version, by parts",
+        "## A query and a diff over a whole version, by parts",
         "",
         "`python -m benchmarks.whole_query [--copies N] [--at-once]`: the first version of "
         "`big_db`'s 1 km² synthetic pair (4 points/m²) written N × N times side by side, and "
-        "`SELECT ditch FROM before` and `SELECT ridge FROM before` over the whole version, each in a "
-        "fresh process: by parts of about 1 km (`queries/parts.py`, as shipped) and, where measured, "
-        "read at once (– where not). *Same*: both ways found the same matches.",
+        "`SELECT ditch FROM before` and `SELECT ridge FROM before` over the whole version, and the "
+        "diff of the two versions over the whole area (co-registration, then `queries.changes.detect`), "
+        "each in a fresh process: by parts of about 1 km (`queries/parts.py`, as shipped) and, where "
+        "measured, read at once (– where not). *Matches*: for the diff, its regions. *Same*: both "
+        "ways found the same matches (regions with the same kind, tiles, area and dz).",
         "",
         "| km² | 2 m tiles | query | matches | by parts s | by parts peak RSS MiB | at once s "
         "| at once peak RSS MiB | same | machine |",
@@ -679,8 +681,11 @@ def whole_query_section(out: list[str]) -> None:
             parts, whole = r["parts"], r.get("at_once")
             once = f"{whole['seconds']:.1f} | {whole['peak_rss_mib']:,.0f}" if whole else "– | –"
             same = ("yes" if r["same_matches"] else "**no**") if "same_matches" in r else "–"
+            what = f"`{r['filter']}`"
+            if "coregister_s" in parts:
+                what = f"diff (after co-registration: {parts['coregister_s']:.1f} s)"
             out.append(
-                f"| {d['area_km2']:,.0f} | {d['rows_2m']:,} | {r['filter']} | {parts['matches']:,} | "
+                f"| {d['area_km2']:,.0f} | {d['rows_2m']:,} | {what} | {parts['matches']:,} | "
                 f"{parts['seconds']:.1f} | {parts['peak_rss_mib']:,.0f} | {once} | {same} | {_machine(d)} |"
             )
     out.append("")

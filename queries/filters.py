@@ -176,6 +176,13 @@ LINKS = {
 }
 
 
+def link_reach(flt: Filter) -> int:
+    """How many tiles apart, at most along either axis, two tiles that :func:`components` joins
+    directly can lie under ``flt``."""
+    offsets = LINKS if flt.join == "lines" else _touching(flt.gap)
+    return max(max(abs(dx), abs(dy)) for dx, dy in offsets)
+
+
 def _touching(gap: int) -> dict[tuple[int, int], tuple[tuple[int, int], ...]]:
     """Offsets (one of each ± pair) of the tiles within ``gap`` tiles of touching."""
     r = gap + 1

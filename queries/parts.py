@@ -17,17 +17,19 @@ of the whole area read at once.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
-from queries.filters import Filter, candidates, components
+from queries.filters import Filter, candidates, components, link_reach
 from tdb.bbox import box_area
 from tdb.blocks import TILES_PER_BLOCK
 from tdb.database import Database
 from tdb.progress import Progress, or_silent
-from tdb.tiles import node_spacing
+from tdb.tiles import node_spacing, tile_key
 
 Box = tuple[float, float, float, float]
 PART = 1024  # m: the side of a part (whole tile blocks: a block where it is larger)
@@ -75,6 +77,12 @@ class Candidates:
     def take(self, idx: NDArray[np.intp]) -> Candidates:
         return Candidates(self.xg[idx], self.yg[idx], self.code[idx], self.own[idx], self.facing[idx])
 
+    @staticmethod
+    def joined(found: list[Candidates]) -> Candidates:
+        return Candidates(
+            *(np.concatenate([getattr(c, f) for c in found]) for f in Candidates.__dataclass_fields__)
+        )
+
 
 def part_candidates(
     db: Database,
@@ -98,7 +106,7 @@ def part_candidates(
         mine = (own | facing) & holds(part, xg, yg)
         found.append(Candidates(xg[mine], yg[mine], code[mine], own[mine], facing[mine]))
         report("parts", k + 1, len(parts))
-    return Candidates(*(np.concatenate([getattr(c, f) for c in found]) for f in Candidates.__dataclass_fields__))
+    return Candidates.joined(found)
 
 
 def batches(
@@ -108,7 +116,7 @@ def batches(
     with the box its stored points are read in: its tiles' box grown by ``grow`` (the filter's
     reach), within ``bbox`` grown so, as the area read at once would be. A batch holds the groups
     that start in one part; a group that spans more than a part's worth of nodes is a batch alone."""
-    groups = components(tiles.xg, tiles.yg, tiles.code, flt, level, accept=np.ones(len(tiles), bool))
+    groups = grouped(tiles, flt, level=level)
     if not groups:
         return
     side = part_side(level)
@@ -124,6 +132,45 @@ def batches(
             continue
         for g in members:
             yield g, clipped(_grown(_tiles_box(tiles, g, level), grow), limit)
+
+
+def grouped(tiles: Candidates, flt: Filter, *, level: int) -> list[NDArray[np.intp]]:
+    """The groups of ``tiles`` that :func:`queries.filters.components` forms under ``flt``, found
+    part by part and joined across the parts' edges: the graph of every candidate at once would
+    hold a few hundred bytes per candidate, a gigabyte over 70 km² at the 2 m level.
+
+    Two tiles the filter joins directly lie at most :func:`queries.filters.link_reach` tiles apart,
+    so where they lie in two parts, both lie that near an edge: the groups of the tiles near the
+    parts' edges say which groups of neighbouring parts are one."""
+    one = replace(flt, min_tiles=1)
+    side = part_side(level)
+    part = tile_key(tiles.xg // side, tiles.yg // side)
+    order = np.argsort(part, kind="stable")
+    starts = np.flatnonzero(np.r_[True, part[order][1:] != part[order][:-1]])
+    label = np.empty(len(tiles), np.int64)
+    n = 0
+    for idx in np.split(order, starts[1:]):
+        for g in _components(tiles.take(idx), one, level):
+            label[idx[g]] = n
+            n += 1
+    reach = (link_reach(flt) + 1) * level
+    rx, ry = tiles.xg % side, tiles.yg % side
+    edge = np.flatnonzero((rx < reach) | (rx >= side - reach) | (ry < reach) | (ry >= side - reach))
+    pairs = [
+        np.column_stack([np.full(len(g) - 1, label[edge[g[0]]]), label[edge[g[1:]]]])
+        for g in _components(tiles.take(edge), one, level)
+        if len(g) > 1
+    ]
+    pair = np.concatenate(pairs) if pairs else np.zeros((0, 2), np.int64)
+    graph = coo_matrix((np.ones(len(pair)), (pair[:, 0], pair[:, 1])), shape=(n, n))
+    merged = connected_components(graph, directed=False)[1][label] if n else label
+    by = np.argsort(merged, kind="stable")
+    groups = np.split(by, np.flatnonzero(np.diff(merged[by])) + 1) if len(by) else []
+    return [g for g in groups if len(g) >= flt.min_tiles]
+
+
+def _components(tiles: Candidates, flt: Filter, level: int) -> list[NDArray[np.intp]]:
+    return components(tiles.xg, tiles.yg, tiles.code, flt, level, accept=np.ones(len(tiles), bool))
 
 
 def _tiles_box(tiles: Candidates, idx: NDArray[np.intp], level: int) -> Box:

@@ -13,9 +13,9 @@ import queries.parts
 import tdb
 from ingest.pipeline import ingest
 from ingest.synth import make_scene, sample
-from queries.filters import candidates
+from queries.filters import candidates, components
 from queries.match import find, resolve
-from queries.parts import part_boxes, part_candidates, part_side
+from queries.parts import Candidates, grouped, part_boxes, part_candidates, part_side
 from queries.run import run
 from tdb.blocks import TILES_PER_BLOCK
 from tdb.categories import all_categories
@@ -93,6 +93,25 @@ def test_the_parts_candidates_are_those_of_the_area_read_at_once(seed, level, na
     got = part_candidates(fake, "v", flt, level=level, bbox=None, parts=parts)
     for mine, want in ((got.own, own), (got.facing, facing)):
         assert sorted(zip(got.xg[mine], got.yg[mine])) == sorted(zip(fake.xg[want], fake.yg[want]))
+
+
+@settings(max_examples=10, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    level=st.sampled_from([2, 4]),
+    name=st.sampled_from(["ditch", "ridge", "mound"]),
+    share=st.floats(0.05, 0.5),
+)
+def test_the_groups_found_by_parts_are_those_of_all_candidates_at_once(seed, level, name, share):
+    fake, flt = _Tiles(seed, level), resolve(name)
+    keep = np.random.default_rng(seed).random(len(fake.xg)) < share
+    n = int(keep.sum())
+    tiles = Candidates(fake.xg[keep], fake.yg[keep], fake.code[keep], np.ones(n, bool), np.zeros(n, bool))
+    whole = components(tiles.xg, tiles.yg, tiles.code, flt, level, accept=np.ones(n, bool))
+    parted = grouped(tiles, flt, level=level)
+    assert sorted(map(tuple, map(sorted, parted))) == sorted(map(tuple, map(sorted, whole)))
+    crossing = [g for g in whole if len(np.unique(tiles.xg[g] // part_side(level))) > 1]
+    assert crossing or share < 0.2  # groups run across the parts' edges
 
 
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
