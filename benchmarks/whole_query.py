@@ -8,7 +8,7 @@ each in a fresh process: by parts (:mod:`queries.parts`, as shipped) and, where 
 once (the parts' lattice limit lifted), with their seconds, peak RSS and matches (regions),
 and whether both ways found the same.
 
-    python -m benchmarks.whole_query [--copies 8] [--at-once] [--dir DIR]
+    python -m benchmarks.whole_query [--copies 8] [--at-once] [--queries ditch,ridge,diff] [--dir DIR]
 
 Results go to ``whole_query_cCOPIES.json``.
 """
@@ -97,13 +97,14 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--copies", type=int, default=8)
     p.add_argument("--at-once", action="store_true", help="also read the whole version at once")
+    p.add_argument("--queries", default=",".join(FILTERS), help=f"which of {', '.join(FILTERS)} to run")
     p.add_argument("--dir", type=Path, default=Path("/tmp/tdb-big"), help="where the databases are made and kept")
     a = p.parse_args()
     a.dir.mkdir(parents=True, exist_ok=True)
     built = in_process(_build, str(a.dir), a.copies)  # this process stays small (in_process)
     target, bounds = a.dir / f"whole{a.copies}.tdb", built["bounds"]
     runs = []
-    for name in FILTERS:
+    for name in a.queries.split(","):
         run = _diff if name == "diff" else _query
         parted = in_process(run, str(target), name, False)
         row: dict[str, Any] = {"filter": name, "parts": {k: v for k, v in parted.items() if k != "key"}}

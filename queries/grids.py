@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from queries.parts import clipped, fits_at_once, holds, part_boxes
 from tdb.bbox import box_area
 from tdb.categories import NO_DATA
 from tdb.database import Database
@@ -52,11 +53,7 @@ def surface_grids(  # noqa: PLR0913 (the two versions, where, and how finely)
     the module describes (NaN outside the tiles both hold); a grid over ``max_cells`` raises an
     :class:`InputError`, or with ``fit`` keeps every k-th node. With ``blocks`` k > 1 only one
     16 m block in k is rebuilt (diagonal stripes of whole blocks, so slopes inside them hold)."""
-    xg, yg, ca, cb = shared_tiles(db, before, after, level=level, bbox=bbox)
-    held = (ca != NO_DATA) & (cb != NO_DATA)
-    if blocks > 1:
-        held &= (xg // BLOCK + yg // BLOCK) % blocks == 0
-    xg, yg = xg[held], yg[held]
+    xg, yg = _held_tiles(db, before, after, level=level, bbox=bbox, blocks=blocks)
     if len(xg) == 0:
         raise InputError(f"versions {before!r} and {after!r} share no tiles at level {level} there")
     s = node_spacing(level)
@@ -92,6 +89,32 @@ def surface_grids(  # noqa: PLR0913 (the two versions, where, and how finely)
         grid[rows - 1 - cj[ok], ci[ok]] = _surface(db, version, level, xg, yg, grown, cells)[ok]  # north first
         out.append(Raster(grid, i0 * s - cell / 2, (j0 + (rows - 1) * step) * s + cell / 2, cell, db.crs(version)))
     return out[0], out[1]
+
+
+def _held_tiles(
+    db: Database, before: str, after: str, *, level: int, bbox: Box | None, blocks: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """(xg, yg) of the tiles both versions hold with data at ``level`` in ``bbox``, one 16 m block
+    in ``blocks`` of them: read part by part (:mod:`queries.parts`) where the area is too wide to
+    read at once, so that only the tiles kept are held."""
+    box = bbox or db.version(before).stats.bounds
+    if box is None or fits_at_once(box, level):
+        return _held(*shared_tiles(db, before, after, level=level, bbox=bbox), blocks=blocks)
+    out = []
+    for part in part_boxes(db, before, level=level, bbox=bbox):
+        xg, yg, ca, cb = shared_tiles(db, before, after, level=level, bbox=clipped(part, bbox))
+        mine = holds(part, xg, yg)
+        out.append(_held(xg[mine], yg[mine], ca[mine], cb[mine], blocks=blocks))
+    return np.concatenate([x for x, _ in out]), np.concatenate([y for _, y in out])
+
+
+def _held(
+    xg: NDArray[np.int64], yg: NDArray[np.int64], ca: NDArray[np.uint8], cb: NDArray[np.uint8], *, blocks: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    held = (ca != NO_DATA) & (cb != NO_DATA)
+    if blocks > 1:
+        held &= (xg // BLOCK + yg // BLOCK) % blocks == 0
+    return xg[held], yg[held]
 
 
 def _surface(db: Database, version: str, level: int, xg: Any, yg: Any, box: Box, cells: Any) -> np.ndarray:

@@ -16,6 +16,7 @@ from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
 from queries.change_parts import reached
 from queries.changes import detect
+from queries.coregister import estimation_grids
 
 
 @pytest.fixture(scope="module")
@@ -69,3 +70,15 @@ def test_the_seeds_reach_the_moved_tiles_that_touch_them(seed, share, level):
     labels, _ = ndimage.label(grid, structure=np.ones((3, 3)))
     keep = np.unique(labels[tj[seeds], ti[seeds]])
     assert np.array_equal(got, np.flatnonzero(np.isin(labels[tj, ti], keep)))
+
+
+@pytest.mark.slow
+@mock.patch("queries.coregister.FIT_CELLS", 2000)  # a sample of the blocks, as over a wide area
+def test_the_grids_a_shift_is_estimated_on_are_the_same_read_in_parts(pair):
+    whole = estimation_grids(pair, "a", "b")
+    with mock.patch.multiple(queries.parts, PART=256, PART_NODES=1000):
+        parted = estimation_grids(pair, "a", "b")
+    for w, p in zip(whole, parted):
+        assert (w.x0, w.y1, w.cell, w.shape) == (p.x0, p.y1, p.cell, p.shape)
+        assert np.isfinite(w.data).sum() > 1000
+        np.testing.assert_array_equal(w.data, p.data)
