@@ -62,20 +62,14 @@ RULES = (  # (filter, sign of dz, kind when the filter matches in the later vers
 EXTRA_LEVELS = {"pit": (4,), "mound": (4,)}
 
 
-def _regions(
-    xg: NDArray[np.int64],
-    yg: NDArray[np.int64],
-    dz: NDArray[np.float64],
-    lod: NDArray[np.float64],
-    level: int,
-    min_tiles: int,
-) -> list[tuple[NDArray[np.intp], float, bool, float]]:
-    """Regions of the moved tiles ``xg``, ``yg`` (8-neighbours on the tile lattice that moved the
+def _regions(t: _Grown, level: int, min_tiles: int) -> list[tuple[NDArray[np.intp], float, bool, float]]:
+    """Regions of the moved tiles ``t`` (8-neighbours on the tile lattice that moved the
     same way, :func:`_label_by_sign`) whose mean change passes their LoD (``lod`` per tile; a
     region's is its tiles' median): members, mean height change, whether the region passes the
     size gate by itself (small ones count only where a closed form came or went, see
     :func:`detect`), and the region's LoD."""
-    tile_label, n = _label_by_sign(xg, yg, dz, lod, level)
+    dz, lod = t.dz, t.lod
+    tile_label, n = _label_by_sign(t.xg, t.yg, dz, lod, level)
     by_label = np.argsort(tile_label, kind="stable")
     bounds = np.searchsorted(tile_label[by_label], np.arange(1, n + 2))
     regions = []
@@ -201,7 +195,8 @@ def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
     seeds = np.flatnonzero(moved.differ)
     if len(seeds) == 0:
         return []
-    strong, weak = _seeds(moved.xg[seeds], moved.yg[seeds], moved.dz[seeds], moved.lod[seeds], level, min_tiles)
+    seed_tiles = _Grown(moved.xg[seeds], moved.yg[seeds], moved.dz[seeds], moved.lod[seeds], moved.layer[:, seeds])
+    strong, weak = _seeds(seed_tiles, level, min_tiles)
     if not strong and not weak:
         return []
     grown = reached(moved.xg, moved.yg, seeds[np.concatenate(strong + weak)], level)
@@ -219,7 +214,7 @@ def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
 
 @dataclass(frozen=True)
 class _Grown:
-    """The tiles of the grown regions: corners, node height changes, LoD and layers."""
+    """Moved tiles (the seeds, or the grown regions): corners, node height changes, LoD and layers."""
 
     xg: NDArray[np.int64]
     yg: NDArray[np.int64]
@@ -260,7 +255,8 @@ def _detect_at_once(  # noqa: PLR0913 (the two versions, where, and how)
     if not moved.any():
         return []
     first = tested[moved]
-    strong, weak = _seeds(xg[first], yg[first], dz[moved], tiles.lod[first], level, min_tiles)
+    seed_tiles = _Grown(xg[first], yg[first], dz[moved], tiles.lod[first], tiles.judged.layer[:, first])
+    strong, weak = _seeds(seed_tiles, level, min_tiles)
     if not strong and not weak:
         return []
     seeds = first[np.concatenate(strong + weak)]
@@ -272,17 +268,10 @@ def _detect_at_once(  # noqa: PLR0913 (the two versions, where, and how)
     )
 
 
-def _seeds(
-    xg: NDArray[np.int64],
-    yg: NDArray[np.int64],
-    dz: NDArray[np.float64],
-    lod: NDArray[np.float64],
-    level: int,
-    min_tiles: int,
-) -> tuple[list[NDArray[np.intp]], list[NDArray[np.intp]]]:
+def _seeds(t: _Grown, level: int, min_tiles: int) -> tuple[list[NDArray[np.intp]], list[NDArray[np.intp]]]:
     """The regions of the moved tiles whose category differs that grow: strong (large, or a
     strong change), and weak (small; kept at the end only where a closed form came or went)."""
-    candidates = _regions(xg, yg, dz, lod, level, min_tiles)
+    candidates = _regions(t, level, min_tiles)
     strong = [m for m, _, big, _ in candidates if big]
     weak = [m for m, d, big, at in candidates if not big and abs(d) >= CLOSED_DZ * at]
     return strong, weak
@@ -295,7 +284,7 @@ def _sure_regions(t: _Grown, from_strong: NDArray[np.bool_], level: int, min_til
     plainly that it moved)."""
     return [
         (members, mean_dz, big and (bool(from_strong[members].any()) or abs(mean_dz) >= STRONG * at), at)
-        for members, mean_dz, big, at in _regions(t.xg, t.yg, t.dz, t.lod, level, min_tiles)
+        for members, mean_dz, big, at in _regions(t, level, min_tiles)
         if big or abs(mean_dz) >= CLOSED_DZ * at
     ]
 
