@@ -29,7 +29,7 @@ from queries.coregister import Shift, shifted_lattice, site
 from queries.filters import builtin_filters
 from queries.grids import shared_tiles
 from queries.match import REACH_TILES, match_tiles
-from queries.parts import fits_at_once, part_boxes, part_side
+from queries.parts import part_side, parts_for
 from queries.tile_change import MovingTiles, level_of_detection, split_keys, tile_lattice, tile_lod
 from tdb.categories import NO_DATA
 from tdb.crs import check_same_horizontal
@@ -183,9 +183,8 @@ def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
     """
     check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=site(db, before))
     lod = level_of_detection(db, before, after, shift=shift)
-    box = bbox or db.version(before).stats.bounds
-    parts = [] if box is None or fits_at_once(box, level) else part_boxes(db, before, level=level, bbox=bbox)
-    if len(parts) <= 1:
+    parts = parts_for(db, before, level=level, bbox=bbox)
+    if not parts:
         return _detect_at_once(
             db, before, after, level=level, bbox=bbox, min_tiles=min_tiles, shift=shift, lod=lod
         )

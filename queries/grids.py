@@ -13,8 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from queries.parts import clipped, fits_at_once, holds, part_boxes
-from tdb.bbox import box_area
+from queries.parts import clipped, fits_at_once, holds, part_side, parts_for
 from tdb.categories import NO_DATA
 from tdb.database import Database
 from tdb.errors import InputError
@@ -24,8 +23,6 @@ from tdb.tiles import SUBGRID, node_lattice, node_spacing, tile_key
 
 Box = tuple[float, float, float, float]
 BLOCK = 16  # m: the blocks a sample of the area is taken in
-PART = 1024  # m: the side of the parts a surface over a vast box is rebuilt in
-PART_NODES = 16_000_000  # nodes of the largest lattice rebuilt at once (128 MB)
 
 
 def shared_tiles(
@@ -97,11 +94,11 @@ def _held_tiles(
     """(xg, yg) of the tiles both versions hold with data at ``level`` in ``bbox``, one 16 m block
     in ``blocks`` of them: read part by part (:mod:`queries.parts`) where the area is too wide to
     read at once, so that only the tiles kept are held."""
-    box = bbox or db.version(before).stats.bounds
-    if box is None or fits_at_once(box, level):
+    parts = parts_for(db, before, level=level, bbox=bbox)
+    if not parts:
         return _held(*shared_tiles(db, before, after, level=level, bbox=bbox), blocks=blocks)
     out = []
-    for part in part_boxes(db, before, level=level, bbox=bbox):
+    for part in parts:
         xg, yg, ca, cb = shared_tiles(db, before, after, level=level, bbox=clipped(part, bbox))
         mine = holds(part, xg, yg)
         out.append(_held(xg[mine], yg[mine], ca[mine], cb[mine], blocks=blocks))
@@ -121,13 +118,13 @@ def _surface(db: Database, version: str, level: int, xg: Any, yg: Any, box: Box,
     """The version's rebuilt surface at the flat sub-grid indices ``cells`` of each tile (T, len(cells)).
 
     A tile's nodes come from its own points alone, so where the tiles' box would hold a lattice of
-    more than :data:`PART_NODES` nodes (a version spread over a vast, mostly empty box) they are
-    rebuilt part by part, each part's points read on their own."""
-    s = node_spacing(level)
-    if box_area(box) / s**2 <= PART_NODES:
+    more than :data:`queries.parts.PART_NODES` nodes (a version spread over a vast, mostly empty
+    box) they are rebuilt part by part, each part's points read on their own."""
+    if fits_at_once(box, level):
         parts = [np.arange(len(xg))]
     else:
-        key = tile_key(np.asarray(xg) // PART, np.asarray(yg) // PART)
+        side = part_side(level)
+        key = tile_key(np.asarray(xg) // side, np.asarray(yg) // side)
         order = np.argsort(key, kind="stable")
         parts = np.split(order, np.flatnonzero(np.diff(key[order])) + 1)
     out = np.empty((len(xg), len(cells)))

@@ -18,7 +18,7 @@ from queries.filters import (
     components,
     tile_lines,
 )
-from queries.parts import Box, batches, fits_at_once, part_boxes, part_candidates
+from queries.parts import Box, batches, part_candidates, parts_for
 from queries.profile import (
     BAND,
     MIN_TREND_PIECES,
@@ -109,11 +109,8 @@ def find(
     flt = resolve(name_or_filter)
     lv = level or flt.level
     grow = _reach(lv)
-    box = bbox or db.version(version).stats.bounds
-    if box is not None and fits_at_once(box, lv):
-        return _find_at_once(db, version, flt, level=lv, bbox=bbox, grow=grow)
-    boxes = part_boxes(db, version, level=lv, bbox=bbox)
-    if len(boxes) <= 1:
+    boxes = parts_for(db, version, level=lv, bbox=bbox)
+    if not boxes:
         return _find_at_once(db, version, flt, level=lv, bbox=bbox, grow=grow)
     tiles = part_candidates(db, version, flt, level=lv, bbox=bbox, parts=boxes, progress=progress)
     out: list[Match] = []

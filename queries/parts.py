@@ -47,6 +47,17 @@ def part_side(level: int) -> int:
     return max(1, PART // block) * block
 
 
+def parts_for(db: Database, version: str, *, level: int, bbox: Box | None) -> list[Box]:
+    """The parts (:func:`part_boxes`) an area of ``version`` (``bbox``, or all of it) is read in;
+    none where it can be read at once: its lattice fits (:func:`fits_at_once`), or it holds tiles
+    in one part at most."""
+    box = bbox or db.version(version).stats.bounds
+    if box is None or fits_at_once(box, level):
+        return []
+    parts = part_boxes(db, version, level=level, bbox=bbox)
+    return parts if len(parts) > 1 else []
+
+
 def part_boxes(db: Database, version: str, *, level: int, bbox: Box | None = None) -> list[Box]:
     """The squares of :func:`part_side` that hold tiles of ``version`` at ``level`` meeting ``bbox``,
     west to east, then south to north: a tile belongs to the one its lower-left corner lies in."""
