@@ -45,13 +45,17 @@ class MovedTiles:
 
     @staticmethod
     def joined(parts: list[MovedTiles]) -> MovedTiles:
+        """The tiles of ``parts`` as one record (none where no part holds any)."""
+        if not parts:
+            none = np.zeros(0, np.int64)
+            return MovedTiles(none, none, np.zeros((0, 9)), np.zeros(0), np.zeros((2, 0)), np.zeros(0, bool))
         cat = np.concatenate
         return MovedTiles(
             cat([p.xg for p in parts]),
             cat([p.yg for p in parts]),
-            cat([p.dz for p in parts]) if parts else np.zeros((0, 9)),
+            cat([p.dz for p in parts]),
             cat([p.lod for p in parts]),
-            cat([p.layer for p in parts], axis=1) if parts else np.zeros((2, 0)),
+            cat([p.layer for p in parts], axis=1),
             cat([p.differ for p in parts]),
         )
 

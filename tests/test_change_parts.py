@@ -14,7 +14,7 @@ import queries.parts
 import tdb
 from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
-from queries.change_parts import reached
+from queries.change_parts import MovedTiles, reached
 from queries.changes import detect
 from queries.coregister import estimation_grids
 
@@ -82,3 +82,9 @@ def test_the_grids_a_shift_is_estimated_on_are_the_same_read_in_parts(pair):
         assert (w.x0, w.y1, w.cell, w.shape) == (p.x0, p.y1, p.cell, p.shape)
         assert np.isfinite(w.data).sum() > 1000
         np.testing.assert_array_equal(w.data, p.data)
+
+
+def test_parts_where_the_versions_share_no_tile_hold_no_moved_tile():
+    none = MovedTiles.joined([])
+    assert len(none.xg) == 0 and none.dz.shape == (0, 9) and none.layer.shape == (2, 0)
+    assert len(reached(none.xg, none.yg, np.zeros(0, np.intp), 2)) == 0
