@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,7 +28,7 @@ from queries.profile import (
     Stretch,
     height_trend,
     side_of,
-    stretches,
+    stretches_of,
     width_of,
 )
 from queries.relief import tile_relief, two_sided_relief
@@ -48,7 +49,7 @@ SPREAD_READ = 2  # a form's spread: its relief read this many times farther off 
 
 
 class _Sections:
-    """The cross-sections (:func:`queries.profile.stretches`) of the matches' centre lines, fitted
+    """The cross-sections (:func:`queries.profile.stretches_of`) of the matches' centre lines, fitted
     at most once each, from the lattice's stored nodes gathered once: the fits cost time."""
 
     def __init__(self, lattice: NodeLattice, geoms: list[shapely.Geometry], measure: Measure) -> None:
@@ -57,11 +58,19 @@ class _Sections:
         self._pieces: dict[tuple[int, float], list[Stretch]] = {}
 
     def of(self, k: int, *, band: float = BAND) -> list[Stretch]:
-        if (k, band) not in self._pieces:
-            if self._nodes is None:
-                self._nodes = Nodes.of(*self.lattice.points())
-            self._pieces[k, band] = stretches(self.geoms[k], self._nodes, measure=self.measure, band=band)
+        self.fit([k], band=band)
         return self._pieces[k, band]
+
+    def fit(self, ks: Iterable[int], *, band: float = BAND) -> None:
+        """Fits the cross-sections of the matches ``ks`` not fitted yet, all together."""
+        todo = [int(k) for k in dict.fromkeys(ks) if (k, band) not in self._pieces]
+        if not todo:
+            return
+        if self._nodes is None:
+            self._nodes = Nodes.of(*self.lattice.points())
+        lines = [self.geoms[k] for k in todo]
+        for k, pieces in zip(todo, stretches_of(lines, self._nodes, measure=self.measure, band=band)):
+            self._pieces[k, band] = pieces
 
 
 def _broad(sections: _Sections, shoulder: NDArray[np.float64], flt: Filter) -> NDArray[np.bool_]:
@@ -73,6 +82,7 @@ def _broad(sections: _Sections, shoulder: NDArray[np.float64], flt: Filter) -> N
         return broad
     with np.errstate(invalid="ignore"):
         narrow = np.flatnonzero(shoulder <= bound)
+    sections.fit(narrow)
     for k in narrow:
         broad[k] = width_of(sections.of(int(k))) >= flt.broad_width
     return broad
@@ -258,13 +268,14 @@ def _steady_along(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
     steady = np.ones(len(sections.geoms), bool)
     if flt.max_trend is None or not _line_with_sides(flt):
         return steady
-    for k, g in enumerate(sections.geoms):
-        if g.length < MIN_TREND_PIECES * PIECE:
-            continue
-        pieces = sections.of(k)
-        steady[k] = not height_trend(pieces) > flt.max_trend  # NaN (no trend read) passes
-        if steady[k] and _whole_band(pieces, BAND):
-            steady[k] = not height_trend(sections.of(k, band=WIDE * BAND)) > flt.max_trend
+    long = [k for k, g in enumerate(sections.geoms) if g.length >= MIN_TREND_PIECES * PIECE]
+    sections.fit(long)
+    for k in long:
+        steady[k] = not height_trend(sections.of(k)) > flt.max_trend  # NaN (no trend read) passes
+    wide = [k for k in long if steady[k] and _whole_band(sections.of(k), BAND)]
+    sections.fit(wide, band=WIDE * BAND)
+    for k in wide:
+        steady[k] = not height_trend(sections.of(k, band=WIDE * BAND)) > flt.max_trend
     return steady
 
 
@@ -277,9 +288,10 @@ def _narrow(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
     narrow = np.ones(len(sections.geoms), bool)
     if flt.max_width is None or not _line_with_sides(flt):
         return narrow
-    for k in range(len(sections.geoms)):
-        if not _whole_band(sections.of(k), BAND):
-            continue
+    sections.fit(range(len(sections.geoms)))
+    whole = [k for k in range(len(sections.geoms)) if _whole_band(sections.of(k), BAND)]
+    sections.fit(whole, band=WIDE * BAND)
+    for k in whole:
         wide = sections.of(k, band=WIDE * BAND)
         narrow[k] = not (width_of(wide) > flt.max_width and not _whole_band(wide, WIDE * BAND))
     return narrow

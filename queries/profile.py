@@ -11,6 +11,11 @@ and 4 (a flat-bottomed U) is fitted robustly to the samples within ``BAND`` m; t
 best fit gives the depth D and the width 2h, up to 2 × ``BAND`` (a wider form reads that wide:
 its banks lie beyond the samples). One piece's fit scatters (by about ±0.15 m in
 width), so each piece reports the median of its own and its neighbours' on the same part.
+The fit is a damped Gauss–Newton descent on a soft-L1 loss, run on every piece of a query
+at once (:func:`fit_profiles`): one piece is a few dozen tiny steps, which cost far more
+as separate calls than as passes over all the pieces' samples. Its cost has several local
+minima of nearly equal depth (the V against the U, a centre off to one side); the descent
+ends in the one downhill of the samples' own start.
 
 The stored surface is a blurred picture of the ground (0.5 m posts from points about
 0.5 m apart, kept nodes about 2 m apart): it rounds a V's bottom off and a flat-bottomed
@@ -27,13 +32,13 @@ ratio of read to true depth 0.98 and width 0.99, the median error 2.5 % in each.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
 import shapely.ops
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
 
 from tdb.median import weighted_median
 from tdb.options import Measure
@@ -51,6 +56,10 @@ MIN_SAMPLES = 10
 NEIGHBOURS = 1  # pieces either side whose fits a piece's depth and width are the median of
 MIN_TREND_PIECES = 3  # pieces a trend along a line is read from
 NO_FORM = 0.05  # m: a piece's fit under this found no form there
+LOSS_SCALE = 0.1  # m: residuals beyond this weigh in the fit as their distance, not its square
+RTOL = 1e-9  # a fit stops when a step gains less than this share of its cost
+MAX_STEPS = 100
+DAMP0 = 1e-2
 
 
 @dataclass(frozen=True)
@@ -85,44 +94,138 @@ def fit_profile(
     """(height, width) of the profile that best fits ``relief`` (m, positive into the form) at
     signed ``offset`` (m, within ``band``) from the line, once blurred by a Gaussian of ``blur``
     m (0: not)."""
-    top = float(np.clip(np.percentile(relief, 95), 0.05, 4.9))
-    # the start: half the width at half the height, where the samples say
-    half = np.abs(offset[relief > top / 2])
-    h0 = float(np.clip(2 * np.median(half) if len(half) else 1.0, 0.3, band + 0.5))
-    # without a blur one tap is the profile itself
-    taps, weight = (_TAPS * blur, _TAP_WEIGHTS) if blur else (np.zeros(1), np.ones(1))
-    best: tuple[float, float, float] | None = None
+    heights, widths = fit_profiles([(offset, relief)], blur=blur, band=band)
+    return float(heights[0]), float(widths[0])
+
+
+def fit_profiles(
+    sections: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]],
+    *,
+    blur: float = BLUR,
+    band: float = BAND,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Heights and widths (m) of :func:`fit_profile` for many ``sections`` (offset, relief) at
+    once: one fit is a few dozen small steps, and taken together each step is one pass over all
+    the samples rather than a pass per section."""
+    if not sections:
+        return np.zeros(0), np.zeros(0)
+    samples = _Samples.of(sections, blur)
+    lower, upper = np.array([0.0, 0.2, -1.0]), np.array([5.0, band + 1, 1.0])
+    start = np.array([_start(o, r, band) for o, r in sections])
+    best_cost = np.full(len(sections), np.inf)
+    best = np.zeros((len(sections), 3))
     for p in SHAPES:
-
-        def terms(t: NDArray[np.float64], p: float = p) -> tuple[NDArray[np.float64], ...]:
-            """The blurred unit profile at each sample and its derivatives by h and c (× d)."""
-            d, h, c = t
-            e = offset[:, None] - c - taps[None, :]
-            u = np.abs(e) / h
-            inside = u < 1
-            up = np.where(inside, u**p, 1.0)
-            slope = np.where(inside, d * p * up / np.maximum(u, 1e-12) / h, 0.0)  # −∂(d·f)/∂u / h
-            return (1 - up) @ weight, (slope * u) @ weight, (slope * np.sign(e)) @ weight
-
-        def residual(t: NDArray[np.float64], p: float = p) -> NDArray[np.float64]:
-            return t[0] * terms(t, p)[0] - relief
-
-        def jacobian(t: NDArray[np.float64], p: float = p) -> NDArray[np.float64]:
-            return np.column_stack(terms(t, p))
-
-        fit = least_squares(
-            residual,
-            [top, h0, 0.0],
-            jac=jacobian,
-            bounds=([0, 0.2, -1.0], [5, band + 1, 1.0]),
-            loss="soft_l1",
-            f_scale=0.1,
-        )
-        if best is None or fit.cost < best[0]:
-            best = (float(fit.cost), float(fit.x[0]), float(2 * fit.x[1]))
-    assert best is not None
+        t, cost = _descend(samples, start, p, lower, upper)
+        wins = cost < best_cost
+        best_cost[wins], best[wins] = cost[wins], t[wins]
     # the samples reach the band either side: a wider fit only says the banks lie beyond them
-    return best[1], min(best[2], 2 * band)
+    return best[:, 0], np.minimum(2 * best[:, 1], 2 * band)
+
+
+@dataclass(frozen=True)
+class _Samples:
+    """Every section's samples end to end, each with its section's index, and the blur's taps."""
+
+    offset: NDArray[np.float64]
+    relief: NDArray[np.float64]
+    section: NDArray[np.intp]
+    taps: NDArray[np.float64]
+    weight: NDArray[np.float64]
+
+    @classmethod
+    def of(cls, sections: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]], blur: float) -> _Samples:
+        # without a blur one tap is the profile itself
+        taps, weight = (_TAPS * blur, _TAP_WEIGHTS) if blur else (np.zeros(1), np.ones(1))
+        sizes = [len(o) for o, _ in sections]
+        offset = np.concatenate([np.asarray(o, np.float64) for o, _ in sections])
+        relief = np.concatenate([np.asarray(r, np.float64) for _, r in sections])
+        return cls(offset, relief, np.repeat(np.arange(len(sections)), sizes), taps, weight)
+
+    def take(self, keep: NDArray[np.bool_], section: NDArray[np.intp]) -> _Samples:
+        """The samples ``keep`` of sections renumbered as ``section`` gives."""
+        return _Samples(self.offset[keep], self.relief[keep], section, self.taps, self.weight)
+
+
+def _start(offset: NDArray[np.float64], relief: NDArray[np.float64], band: float) -> tuple[float, float, float]:
+    """(height, half width, centre) to start a fit from: half the width at half the height, where
+    the samples say."""
+    top = float(np.clip(np.percentile(relief, 95), 0.05, 4.9))
+    half = np.abs(offset[relief > top / 2])
+    return top, float(np.clip(2 * np.median(half) if len(half) else 1.0, 0.3, band + 0.5)), 0.0
+
+
+def _residuals(s: _Samples, t: NDArray[np.float64], p: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each sample's residual under its section's (height, half width, centre) ``t`` and the
+    residual's derivatives by the three (S, 3)."""
+    d, h, c = (t[s.section, i, None] for i in range(3))
+    e = s.offset[:, None] - c - s.taps
+    u = np.abs(e) / h
+    inside = u < 1
+    up = np.where(inside, u**p, 1.0)
+    slope = np.where(inside, d * p * up / np.maximum(u, 1e-12) / h, 0.0)  # −∂(d·f)/∂u / h
+    f = (1 - up) @ s.weight
+    jac = np.column_stack([f, (slope * u) @ s.weight, (slope * np.sign(e)) @ s.weight])
+    return d[:, 0] * f - s.relief, jac
+
+
+def _cost(s: _Samples, r: NDArray[np.float64], n: int) -> NDArray[np.float64]:
+    """Each section's robust cost of residuals ``r``: soft-L1, quadratic within ``LOSS_SCALE``."""
+    loss = LOSS_SCALE**2 * (np.sqrt(1 + (r / LOSS_SCALE) ** 2) - 1)
+    return np.bincount(s.section, loss, minlength=n).astype(np.float64)
+
+
+def _descend(
+    s: _Samples, start: NDArray[np.float64], p: float, lower: NDArray[np.float64], upper: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Damped Gauss–Newton (Levenberg–Marquardt) on every section at once, each residual
+    weighted by the robust loss's slope at it. A section stops when a step gains under ``RTOL``
+    of its cost, or no step gains however damped. Returns each section's parameters and cost."""
+    n = len(start)
+    t = start.copy()
+    r, jac = _residuals(s, t, p)
+    cost = _cost(s, r, n)
+    damping = np.full(n, DAMP0)
+    live = np.ones(n, bool)
+    for _ in range(MAX_STEPS):
+        act = np.flatnonzero(live)
+        if not len(act):
+            break
+        keep = live[s.section]
+        sub = s.take(keep, np.searchsorted(act, s.section[keep]))
+        tried = _step(sub, r[keep], jac[keep], t[act], damping[act], lower, upper)
+        rn, jn = _residuals(sub, tried, p)
+        cn = _cost(sub, rn, len(act))
+        better = cn < cost[act]
+        settled = (cost[act] - cn <= RTOL * cost[act]) | (np.abs(tried - t[act]).max(axis=1) < 1e-7)
+        taken = better[sub.section]
+        r[np.flatnonzero(keep)[taken]], jac[np.flatnonzero(keep)[taken]] = rn[taken], jn[taken]
+        t[act[better]], cost[act[better]] = tried[better], cn[better]
+        damping[act] = np.where(better, np.maximum(damping[act] * 0.3, 1e-9), damping[act] * 10)
+        live[act[(better & settled) | (damping[act] > 1e8)]] = False
+    return t, cost
+
+
+def _step(
+    s: _Samples,
+    r: NDArray[np.float64],
+    jac: NDArray[np.float64],
+    t: NDArray[np.float64],
+    damping: NDArray[np.float64],
+    lower: NDArray[np.float64],
+    upper: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Each section's parameters after one damped step on its robustly weighted normal
+    equations; a parameter at a bound that the step would push out stays there."""
+    n = len(t)
+    w = 1 / np.sqrt(1 + (r / LOSS_SCALE) ** 2)
+    pairs = [np.bincount(s.section, w * jac[:, i] * jac[:, j], minlength=n) for i in range(3) for j in range(3)]
+    a = np.stack(pairs, axis=1).reshape(n, 3, 3)
+    g = np.stack([np.bincount(s.section, w * jac[:, i] * r, minlength=n) for i in range(3)], axis=1)
+    held = ((t <= lower) & (g > 0)) | ((t >= upper) & (g < 0))
+    a = np.where(held[:, :, None] | held[:, None, :], 0.0, a)
+    g = np.where(held, 0.0, g)
+    a = a + (damping[:, None] * np.einsum("kii->ki", a) + 1e-12 + held)[:, :, None] * np.eye(3)
+    return np.clip(t - np.linalg.solve(a, g[..., None])[..., 0], lower, upper)
 
 
 def smooth_line(line: shapely.LineString, *, window: float = 2.0, step: float = 0.5) -> shapely.LineString:
@@ -144,8 +247,32 @@ def stretches(
     from the stored ``nodes`` around it, sampled ``band`` m either side (the terrain beside read
     from half a metre beyond the band out to twice it; widths read up to twice the band). Pieces
     too short or too sparse to fit take the length-weighted median of the match's measured ones."""
+    return stretches_of([line], nodes, measure=measure, band=band)[0]
+
+
+def stretches_of(
+    lines: Sequence[shapely.Geometry], nodes: Nodes, *, measure: Measure = Measure.DEPTH, band: float = BAND
+) -> list[list[Stretch]]:
+    """:func:`stretches` of each of ``lines``, their cross-sections fitted together."""
     sign = -measure.sign  # the cross-section is fitted as a valley: a ridge is turned over
-    out: list[Stretch] = []
+    pieces = [_pieces(line) for line in lines]
+    sampled = [
+        (i, j, s)
+        for i, own in enumerate(pieces)
+        for j, (piece, _, fitted) in enumerate(own)
+        if fitted and (s := _samples(piece, nodes, sign, band)) is not None
+    ]
+    heights, widths = fit_profiles([s for _, _, s in sampled], band=band)
+    fits = {(i, j): (float(d), float(w)) for (i, j, _), d, w in zip(sampled, heights, widths)}
+    return [
+        _filled(_steady([Stretch(p, k, *fits.get((i, j), (np.nan, np.nan))) for j, (p, k, _) in enumerate(own)]))
+        for i, own in enumerate(pieces)
+    ]
+
+
+def _pieces(line: shapely.Geometry) -> list[tuple[shapely.LineString, int, bool]]:
+    """The pieces of a line's parts, each with its part and whether it is long enough to fit."""
+    out = []
     for k, part in enumerate(getattr(line, "geoms", [line])):
         if part.is_empty or part.length == 0:
             continue
@@ -154,16 +281,19 @@ def stretches(
         for i in range(count):
             piece = shapely.ops.substring(smooth, i * smooth.length / count, (i + 1) * smooth.length / count)
             fitted = part.length >= MIN_PART and isinstance(piece, shapely.LineString) and piece.length > 0
-            d, w = _cross_section(piece, nodes, sign, band) if fitted else (np.nan, np.nan)
-            out.append(Stretch(piece, k, d, w))
-    out = _steady(out)
-    measured = [s for s in out if np.isfinite(s.width)]
-    if measured and len(measured) < len(out):
-        weight = np.array([s.line.length for s in measured])
-        d = weighted_median(np.array([s.measure for s in measured]), weight)
-        w = weighted_median(np.array([s.width for s in measured]), weight)
-        out = [s if np.isfinite(s.width) else Stretch(s.line, s.part, d, w) for s in out]
+            out.append((piece, k, fitted))
     return out
+
+
+def _filled(pieces: list[Stretch]) -> list[Stretch]:
+    """Unmeasured pieces given the length-weighted median of the measured ones."""
+    measured = [s for s in pieces if np.isfinite(s.width)]
+    if not measured or len(measured) == len(pieces):
+        return pieces
+    weight = np.array([s.line.length for s in measured])
+    d = weighted_median(np.array([s.measure for s in measured]), weight)
+    w = weighted_median(np.array([s.width for s in measured]), weight)
+    return [s if np.isfinite(s.width) else Stretch(s.line, s.part, d, w) for s in pieces]
 
 
 def width_of(pieces: list[Stretch]) -> float:
@@ -219,7 +349,10 @@ def side_of(band: float) -> tuple[float, float]:
     return band + SIDE[0] - BAND, band * SIDE[1] / BAND
 
 
-def _cross_section(piece: shapely.LineString, nodes: Nodes, sign: float, band: float) -> tuple[float, float]:
+def _samples(
+    piece: shapely.LineString, nodes: Nodes, sign: float, band: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """The signed offsets and reliefs of the nodes within ``band`` of ``piece`` (None: too few)."""
     points, x, y, z = nodes.points, nodes.x, nodes.y, nodes.z
     side = side_of(band)
     idx = nodes.tree.query(piece, predicate="dwithin", distance=side[1])
@@ -234,9 +367,9 @@ def _cross_section(piece: shapely.LineString, nodes: Nodes, sign: float, band: f
     offset = np.sign(tx * (y[idx] - ay) - ty * (x[idx] - ax)) * dist
     far, near = dist > side[0], dist < band
     if far.sum() < MIN_SAMPLES or near.sum() < MIN_SAMPLES:
-        return np.nan, np.nan
+        return None
     mx, my = x[idx].mean(), y[idx].mean()
     design = np.column_stack([np.ones(len(idx)), x[idx] - mx, y[idx] - my])
     coef = np.linalg.lstsq(design[far], z[idx][far], rcond=None)[0]
     relief = sign * (design @ coef - z[idx])
-    return fit_profile(offset[near], relief[near], band=band)
+    return offset[near], relief[near]

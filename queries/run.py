@@ -13,7 +13,7 @@ from queries.history import change_history
 from queries.language import Query, parse
 from queries.match import find, resolve
 from queries.object_changes import object_changes
-from queries.profile import SIDE, Nodes, Stretch, stretches
+from queries.profile import SIDE, Nodes, Stretch, stretches_of
 from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import QueryError
@@ -77,6 +77,7 @@ def _select(db: Database, q: Query, text: str, progress: Progress | None = None)
 
 
 OBJECTS = ("trees", "buildings")  # what stands on the ground, stored per version
+FIT_BATCH = 500  # matches whose cross-sections are fitted together: the fits cost less in batches
 
 
 def _near(db: Database, q: Query, features: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -160,32 +161,42 @@ def _by_stretch(
     x, y, z, _ = db.points(q.version, level=matches[0].level, bbox=box, ordered=False)
     nodes = Nodes.of(x, y, z)
     by_piece = Query(q.what, q.version, conditions=[c for c in q.conditions if c.attribute in ("width", name)])
+    out: list[dict[str, Any]] = []
+    for s in range(0, len(matches), FIT_BATCH):
+        report("cross-sections", s, len(matches))
+        batch = matches[s : s + FIT_BATCH]
+        for m, pieces in zip(batch, stretches_of([m.geometry for m in batch], nodes, measure=flt.measure)):
+            out += _passing_runs(m, pieces, q, by_piece, name)
+    return out
+
+
+def _passing_runs(m: Match, pieces: list[Stretch], q: Query, by_piece: Query, name: str) -> list[dict[str, Any]]:
+    """The runs of a match's consecutive pieces (on one part) that pass ``by_piece``, as
+    features with their length-weighted depth (height) and width, where they pass ``q``."""
+    runs: list[list[Stretch]] = []
+    for st in pieces:
+        if not (np.isfinite(st.width) and _keep({"width": st.width, name: st.measure}, by_piece)):
+            runs.append([])
+        elif runs and runs[-1] and runs[-1][-1].part == st.part:
+            runs[-1].append(st)
+        else:
+            runs.append([st])
     out = []
-    for done, m in enumerate(matches):
-        report("cross-sections", done, len(matches))
-        runs: list[list[Stretch]] = []
-        for st in stretches(m.geometry, nodes, measure=flt.measure):
-            if not (np.isfinite(st.width) and _keep({"width": st.width, name: st.measure}, by_piece)):
-                runs.append([])
-            elif runs and runs[-1] and runs[-1][-1].part == st.part:
-                runs[-1].append(st)
-            else:
-                runs.append([st])
-        for run_ in filter(None, runs):
-            weight = np.array([st.line.length for st in run_])
-            props = {
-                "kind": m.filter,
-                "level": m.level,
-                "tiles": len(m.tiles),
-                "length": round(float(weight.sum()), 2),
-                name: round(weighted_median(np.array([st.measure for st in run_]), weight), 3),
-                "width": round(weighted_median(np.array([st.width for st in run_]), weight), 2),
-            }
-            if np.isfinite(m.shoulder):
-                props["shoulder"] = round(m.shoulder, 2)
-            if _keep(props, q):
-                geom = shapely.line_merge(shapely.union_all([st.line for st in run_]))
-                out.append(feature(geom, props))
+    for run_ in filter(None, runs):
+        weight = np.array([st.line.length for st in run_])
+        props = {
+            "kind": m.filter,
+            "level": m.level,
+            "tiles": len(m.tiles),
+            "length": round(float(weight.sum()), 2),
+            name: round(weighted_median(np.array([st.measure for st in run_]), weight), 3),
+            "width": round(weighted_median(np.array([st.width for st in run_]), weight), 2),
+        }
+        if np.isfinite(m.shoulder):
+            props["shoulder"] = round(m.shoulder, 2)
+        if _keep(props, q):
+            geom = shapely.line_merge(shapely.union_all([st.line for st in run_]))
+            out.append(feature(geom, props))
     return out
 
 
