@@ -22,6 +22,7 @@ from queries.coregister import Shift, coregister
 from tdb.database import Database
 from tdb.geojson import feature
 from tdb.options import Coregistration
+from tdb.progress import Progress, labelled
 
 
 def change_history(
@@ -32,6 +33,7 @@ def change_history(
     bbox: tuple[float, float, float, float] | None = None,
     reference: str | None = None,
     method: str | Coregistration = Coregistration.AUTO,
+    progress: Progress | None = None,
 ) -> list[dict[str, Any]]:
     """Changed regions across ``versions`` as GeoJSON features.
 
@@ -39,6 +41,7 @@ def change_history(
     of the pair. For more: one feature per history, with ``first_changed`` (the version in which
     it first differs), ``intervals`` (how many intervals it changed in), and per interval ending
     in version v, ``dz_v`` (mean height change, m; 0 where it did not change) and ``kind_v``.
+    ``progress`` (:mod:`tdb.progress`) follows each interval's detection.
     """
     ref = reference or versions[0]
     shifts = {
@@ -48,7 +51,8 @@ def change_history(
     per_interval = []
     for before, after in pairwise(versions):
         shift = between(shifts[before], shifts[after])
-        found = detect(db, before, after, level=level, bbox=bbox, shift=shift)
+        report = labelled(progress, f"{before} to {after}") if progress is not None else None
+        found = detect(db, before, after, level=level, bbox=bbox, shift=shift, progress=report)
         per_interval.append((after, found))
     if len(versions) == 2:
         return per_interval[0][1]

@@ -145,6 +145,28 @@ def batches(
             yield g, clipped(_grown(_tiles_box(tiles, g, level), grow), limit)
 
 
+def line_batches(
+    bounds: NDArray[np.float64], *, level: int, grow: float
+) -> Iterator[tuple[NDArray[np.intp], Box]]:
+    """Lines (their ``bounds``, (N, 4)) in batches read together, each with the box its stored
+    points are read in: its lines' box grown by ``grow``. All lines are one batch where that box
+    fits (:func:`fits_at_once`), else those whose lower-left corner lies in one part are."""
+    if not len(bounds):
+        return
+    if fits_at_once(_grown(_lines_box(bounds), grow), level):
+        which = np.zeros(len(bounds), np.intp)
+    else:
+        which = np.unique(np.floor(bounds[:, :2] / part_side(level)), axis=0, return_inverse=True)[1].ravel()
+    order = np.argsort(which, kind="stable")
+    for idx in np.split(order, np.flatnonzero(np.diff(which[order])) + 1):
+        yield idx, _grown(_lines_box(bounds[idx]), grow)
+
+
+def _lines_box(bounds: NDArray[np.float64]) -> Box:
+    (x0, y0), (x1, y1) = bounds[:, :2].min(axis=0), bounds[:, 2:].max(axis=0)
+    return (float(x0), float(y0), float(x1), float(y1))
+
+
 def grouped(tiles: Candidates, flt: Filter, *, level: int) -> list[NDArray[np.intp]]:
     """The groups of ``tiles`` that :func:`queries.filters.components` forms under ``flt``, found
     part by part and joined across the parts' edges: the graph of every candidate at once would

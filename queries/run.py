@@ -13,6 +13,7 @@ from queries.history import change_history
 from queries.language import Query, parse
 from queries.match import find, resolve
 from queries.object_changes import object_changes
+from queries.parts import line_batches
 from queries.profile import SIDE, Nodes, Stretch, stretches_of
 from tdb.categories import all_categories
 from tdb.database import Database
@@ -36,7 +37,8 @@ OPS = {
 
 def run(db: Database, text: str, *, progress: Progress | None = None) -> list[dict[str, Any]]:
     """Run a query; return GeoJSON Feature dicts in the database's CRS. ``progress``
-    (:mod:`tdb.progress`) follows the longest step: the cross-sections of a query on ``width``."""
+    (:mod:`tdb.progress`) follows the long steps: the parts of a query over a whole survey, the
+    cross-sections of a query on ``width``, and each interval's detection of changes."""
     q = parse(text)
     return _order(_near(db, q, _select(db, q, text, progress)), q)
 
@@ -57,7 +59,7 @@ def _select(db: Database, q: Query, text: str, progress: Progress | None = None)
     if q.what == "tiles":
         return _tiles(db, q)
     if q.what == "changes":
-        return _changes(db, q, text)
+        return _changes(db, q, text, progress)
     if q.what == "object_changes":
         return _object_changes(db, q, text)
     if q.to_version is not None:
@@ -120,13 +122,13 @@ def _object_changes(db: Database, q: Query, text: str) -> list[dict[str, Any]]:
     return [f for f in object_changes(db, q.version, q.to_version, bbox=q.bbox) if _keep(f["properties"], q)]
 
 
-def _changes(db: Database, q: Query, text: str) -> list[dict[str, Any]]:
+def _changes(db: Database, q: Query, text: str, progress: Progress | None = None) -> list[dict[str, Any]]:
     """Changes FROM a TO b [TO c …]: co-registered on stable ground, as :mod:`queries.history` says."""
     if q.to_version is None:
         raise QueryError("SELECT changes needs FROM <version> TO <version>", text=text, position=0)
     for name in q.to_versions:
         db.version(name)
-    found = change_history(db, [q.version, *q.to_versions], level=q.level or 2, bbox=q.bbox)
+    found = change_history(db, [q.version, *q.to_versions], level=q.level or 2, bbox=q.bbox, progress=progress)
     return [f for f in found if _keep(f["properties"], q)]
 
 
@@ -155,18 +157,28 @@ def _by_stretch(
     if not matches:
         return []
     name = flt.measure.value
-    x0, y0, x1, y1 = shapely.total_bounds([m.geometry for m in matches])
-    grow = SIDE[1] + matches[0].level
-    box = (x0 - grow, y0 - grow, x1 + grow, y1 + grow)
-    x, y, z, _ = db.points(q.version, level=matches[0].level, bbox=box, ordered=False)
-    nodes = Nodes.of(x, y, z)
+    pieces = _stretches_by_parts(db, q.version, matches, flt.measure, report)
     by_piece = Query(q.what, q.version, conditions=[c for c in q.conditions if c.attribute in ("width", name)])
-    out: list[dict[str, Any]] = []
-    for s in range(0, len(matches), FIT_BATCH):
-        report("cross-sections", s, len(matches))
-        batch = matches[s : s + FIT_BATCH]
-        for m, pieces in zip(batch, stretches_of([m.geometry for m in batch], nodes, measure=flt.measure)):
-            out += _passing_runs(m, pieces, q, by_piece, name)
+    return [f for m, own in zip(matches, pieces) for f in _passing_runs(m, own, q, by_piece, name)]
+
+
+def _stretches_by_parts(
+    db: Database, version: str, matches: list[Match], measure: Measure, report: Progress
+) -> list[list[Stretch]]:
+    """Each match's stretches (:func:`queries.profile.stretches_of`), the matches taken part by
+    part (:func:`queries.parts.line_batches`), each part's with the stored points of its box."""
+    level = matches[0].level
+    geoms = [m.geometry for m in matches]
+    out: list[list[Stretch]] = [[] for _ in matches]
+    done = 0
+    for idx, box in line_batches(shapely.bounds(geoms), level=level, grow=SIDE[1] + level):
+        nodes = Nodes.of(*db.points(version, level=level, bbox=box, ordered=False)[:3])
+        for s in range(0, len(idx), FIT_BATCH):
+            report("cross-sections", done, len(matches))
+            batch = idx[s : s + FIT_BATCH]
+            for k, own in zip(batch, stretches_of([geoms[k] for k in batch], nodes, measure=measure)):
+                out[k] = own
+            done += len(batch)
     return out
 
 

@@ -24,3 +24,13 @@ def silent(step: str, done: int, total: int) -> None:
 def or_silent(progress: Progress | None) -> Progress:
     """``progress``, or :func:`silent` where none is given."""
     return progress if progress is not None else silent
+
+
+def labelled(progress: Progress, label: str) -> Progress:
+    """``progress`` with each step named after ``label`` too: the same steps of several runs
+    (the intervals of a history) told apart."""
+
+    def report(step: str, done: int, total: int) -> None:
+        progress(f"{step} ({label})", done, total)
+
+    return report

@@ -57,6 +57,18 @@ def test_a_diff_by_parts_of_a_box_finds_the_regions_of_the_box_at_once(pair):
         assert _key(detect(pair, "a", "b", bbox=box)) == _key(whole)
 
 
+@pytest.mark.slow
+def test_a_changes_query_tells_its_progress_by_interval(pair):
+    from queries.run import run
+
+    whole = run(pair, "SELECT changes FROM a TO b")
+    steps = []
+    with mock.patch.multiple(queries.parts, PART=256, PART_NODES=1000):
+        parted = run(pair, "SELECT changes FROM a TO b", progress=lambda *a: steps.append(a))
+    assert {s for s, *_ in steps} == {"parts (a to b)"} and steps[-1][1] == steps[-1][2] >= 2
+    assert sorted(map(str, parted)) == sorted(map(str, whole))
+
+
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), share=st.floats(0.1, 0.6), level=st.sampled_from([2, 4]))
 def test_the_seeds_reach_the_moved_tiles_that_touch_them(seed, share, level):

@@ -6,6 +6,7 @@ from unittest import mock
 
 import numpy as np
 import pytest
+import shapely
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -15,7 +16,7 @@ from ingest.pipeline import ingest
 from ingest.synth import make_scene, sample
 from queries.filters import candidates, components
 from queries.match import find, resolve
-from queries.parts import Candidates, grouped, part_boxes, part_candidates, part_side
+from queries.parts import Candidates, grouped, line_batches, part_boxes, part_candidates, part_side
 from queries.run import run
 from tdb.blocks import TILES_PER_BLOCK
 from tdb.categories import all_categories
@@ -149,3 +150,19 @@ def test_a_whole_version_query_over_a_wide_box_runs_by_parts(db):
     xs = [f["geometry"]["coordinates"][0][0] for f in parted if f["geometry"]["type"] == "LineString"]
     x0 = db.version("far").stats.bounds[0]
     assert min(xs) < x0 + 200 < x0 + GAP < max(xs)  # both patches answered
+
+
+def test_a_size_class_query_by_parts_measures_the_cross_sections_of_the_query_at_once(db):
+    query = "SELECT ditch FROM v WHERE depth >= 0.3 AND width >= 1.0"
+    whole = run(db, query)
+    assert whole
+    lines = [m.geometry for m in find(db, "v", "ditch")]
+    with _in_parts(128, nodes=1000):
+        batches = list(line_batches(shapely.bounds(lines), level=2, grow=8.0))
+        parted = run(db, query)
+    assert len(batches) >= 2  # the lines' points read part by part
+    assert sorted(np.concatenate([idx for idx, _ in batches]).tolist()) == list(range(len(lines)))
+    for idx, (x0, y0, x1, y1) in batches:  # each batch's box holds its lines and their sides
+        held = shapely.box(x0 + 8.0, y0 + 8.0, x1 - 8.0, y1 - 8.0).buffer(1e-6)
+        assert all(held.contains(lines[k]) for k in idx)
+    assert sorted(map(str, parted)) == sorted(map(str, whole))
