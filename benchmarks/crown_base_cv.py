@@ -31,8 +31,8 @@ from benchmarks.objects_cv import (
     synthetic_case,
 )
 from benchmarks.objects_score import score_trees
-from ingest.ground.tiling import available_cores
 from ingest.objects import TreeParams
+from tdb.workers import available_cores
 
 SHARES: tuple[float | None, ...] = (None, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5)
 

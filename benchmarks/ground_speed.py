@@ -29,8 +29,8 @@ def one(method: str, site: str) -> dict[str, float]:
     t0 = time.perf_counter()
     methods()[method](cloud.xyz)
     dt = time.perf_counter() - t0
-    from ingest.ground.tiling import available_cores
     from tdb.memory import peak_mib
+    from tdb.workers import available_cores
 
     return {
         "points": len(cloud),

@@ -33,7 +33,6 @@ from benchmarks.objects_score import MIN_CROWN, MIN_HEIGHT, footprint_iou, score
 from ingest.dtm import DEFAULT_RESOLUTION, dense_model
 from ingest.ground import classify_ground
 from ingest.ground.grids import Grid
-from ingest.ground.tiling import available_cores
 from ingest.objects import ObjectParams, TreeParams, find_objects
 from ingest.objects.heights import TopRaster, above_ground
 from ingest.readers import read
@@ -42,6 +41,7 @@ from ingest.synth import sample as survey_of
 from tdb.classes import NOISE, excluded
 from tdb.cloud import PointCloud
 from tdb.units import to_metres
+from tdb.workers import available_cores
 
 SEEDS, HOLDOUT = (1, 2, 3, 4), (11, 12, 13, 14)
 DENSITIES = (2.0, 8.0, 20.0)

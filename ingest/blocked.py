@@ -39,15 +39,12 @@ import dataclasses
 import itertools
 import os
 import tempfile
-import threading
 import warnings
 from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from multiprocessing import get_all_start_methods, get_context
-from multiprocessing.context import BaseContext
 from pathlib import Path
 from typing import Any
 
@@ -60,7 +57,6 @@ from ingest.block_totals import BlockResult, Totals
 from ingest.catalog import Box, Catalog, CatalogFile, is_catalog, open_catalog
 from ingest.ground import classify_ground
 from ingest.ground.outliers import DENSITY_BLOCK
-from ingest.ground.tiling import available_cores, one_blas_thread_here
 from ingest.noise import fullest_square, pilot_threshold, square_counts
 from ingest.objects.cover import SINGLE_RETURNS
 from ingest.overlaps import SharedPoints
@@ -81,6 +77,7 @@ from tdb.threads import keep_freed_memory, one_blas_thread
 from tdb.tiles import LEVELS, SUBGRID, tile_key
 from tdb.units import to_metres, units_of
 from tdb.version_writer import VersionWriter
+from tdb.workers import available_cores, local_pool, one_blas_thread_here
 
 MARGIN = 32.0  # m of the buffer the model beyond the ground filter is made from: see the module's description
 CHUNK = 2_000_000  # points decoded at a time
@@ -345,25 +342,8 @@ def _pool(b: Blocking, blocks: int) -> Iterator[Any]:
     if workers <= 1:
         yield None
         return
-    # A child forked from this process would inherit its threads and locks. The fork server is a
-    # fresh process that loads the block's modules once; each worker forks from it ready to work.
-    # Where there is none (Windows), each worker starts afresh and loads them itself.
-    context: BaseContext = get_context("spawn")
-    if "forkserver" in get_all_start_methods():
-        context = get_context("forkserver")
-        context.set_forkserver_preload([__name__])
-    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start) as pool:
-        # One process is spawned per task while none is idle. Each waits for the server to load
-        # the modules, so they are asked for from a thread while this one reads the input.
-        starter = threading.Thread(target=lambda: [pool.submit(int) for _ in range(workers)], daemon=True)
-        starter.start()
-        try:
-            yield pool
-        except BaseException:
-            pool.shutdown(wait=False, cancel_futures=True)  # a failed run does not model the rest
-            raise
-        finally:
-            starter.join()
+    with local_pool(workers, preload=__name__, initializer=_worker_start) as pool:
+        yield pool
 
 
 def _worker_start() -> None:

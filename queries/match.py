@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import shapely
@@ -19,7 +20,7 @@ from queries.filters import (
     components,
     tile_lines,
 )
-from queries.parts import Box, batches, part_candidates, parts_for
+from queries.parts import Box, Candidates, batches, part_candidates, parts_for
 from queries.profile import (
     BAND,
     MIN_TREND_PIECES,
@@ -34,10 +35,12 @@ from queries.profile import (
 from queries.relief import tile_relief, two_sided_relief
 from queries.shoulder import shoulders
 from tdb.database import Database
+from tdb.database import open as open_database
 from tdb.errors import FilterError
 from tdb.options import Measure
-from tdb.progress import Progress
+from tdb.progress import Progress, or_silent
 from tdb.tiles import NodeLattice, node_lattice
+from tdb.workers import available_cores, local_pool, one_blas_thread_here
 
 REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
 LINK_TILES = 3.0  # extreme nodes of touching tiles lie at most 2√2 tiles apart
@@ -105,6 +108,7 @@ def find(
     level: int | None = None,
     bbox: tuple[float, float, float, float] | None = None,
     progress: Progress | None = None,
+    workers: int | None = None,
 ) -> list[Match]:
     """Objects matching a filter at ``level`` (default: the filter's own) inside ``bbox``.
 
@@ -114,7 +118,9 @@ def find(
 
     An area too wide to read at once (a whole survey of many km²) is read in parts
     (:mod:`queries.parts`), with the same matches; a match's ``tiles`` then index its batch's
-    candidate tiles. ``progress`` (:mod:`tdb.progress`) follows the parts.
+    candidate tiles. Their batches are matched in ``workers`` processes (default: one per core),
+    each opening the database itself, where it is not in memory. ``progress``
+    (:mod:`tdb.progress`) follows the parts and the batches.
     """
     flt = resolve(name_or_filter)
     lv = level or flt.level
@@ -123,13 +129,54 @@ def find(
     if not boxes:
         return _find_at_once(db, version, flt, level=lv, bbox=bbox, grow=grow)
     tiles = part_candidates(db, version, flt, level=lv, bbox=bbox, parts=boxes, progress=progress)
+    groups = batches(tiles, flt, level=lv, grow=grow, bbox=bbox)
+    jobs = [_Batch(version, flt, lv, tiles.take(idx), box) for idx, box in groups]
+    return _matched(db, jobs, workers=workers or available_cores(), progress=progress)
+
+
+@dataclass(frozen=True)
+class _Batch:
+    """A batch of a query read in parts: its candidate tiles and the box its points are read in."""
+
+    version: str
+    flt: Filter
+    level: int
+    tiles: Candidates
+    box: Box
+
+
+def _matched(db: Database, jobs: list[_Batch], *, workers: int, progress: Progress | None) -> list[Match]:
+    """The matches of every batch, in order; in a pool of ``workers`` processes where there are
+    several batches and the database can be opened by another process."""
+    report = or_silent(progress)
+    location, n = db.location, min(workers, len(jobs))
     out: list[Match] = []
-    for idx, box in batches(tiles, flt, level=lv, grow=grow, bbox=bbox):
-        px, py, pz, _ = db.points(version, level=lv, bbox=box, ordered=False)
-        t = tiles.take(idx)
-        evidence = (t.own, t.facing)
-        out += match_tiles(t.xg, t.yg, t.code, node_lattice(px, py, pz, lv), flt, level=lv, evidence=evidence)
+    if n <= 1 or location is None:
+        for done, job in enumerate(jobs, start=1):
+            out += _match_batch(db, job)
+            report("batches", done, len(jobs))
+        return out
+    with local_pool(n, preload=__name__, initializer=one_blas_thread_here) as pool:
+        for done, found in enumerate(pool.map(partial(_match_in_worker, location), jobs), start=1):
+            out += found
+            report("batches", done, len(jobs))
     return out
+
+
+def _match_batch(db: Database, job: _Batch) -> list[Match]:
+    px, py, pz, _ = db.points(job.version, level=job.level, bbox=job.box, ordered=False)
+    t, lattice = job.tiles, node_lattice(px, py, pz, job.level)
+    return match_tiles(t.xg, t.yg, t.code, lattice, job.flt, level=job.level, evidence=(t.own, t.facing))
+
+
+_OPENED: dict[str, Database] = {}  # in a worker: the databases it has opened, by location
+
+
+def _match_in_worker(location: str, job: _Batch) -> list[Match]:
+    """:func:`_match_batch` in a worker process, on the database it opens once."""
+    if location not in _OPENED:
+        _OPENED[location] = open_database(location, readonly=True)
+    return _match_batch(_OPENED[location], job)
 
 
 def _reach(level: int) -> float:

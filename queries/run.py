@@ -35,12 +35,16 @@ OPS = {
 }
 
 
-def run(db: Database, text: str, *, progress: Progress | None = None) -> list[dict[str, Any]]:
+def run(
+    db: Database, text: str, *, progress: Progress | None = None, workers: int | None = None
+) -> list[dict[str, Any]]:
     """Run a query; return GeoJSON Feature dicts in the database's CRS. ``progress``
     (:mod:`tdb.progress`) follows the long steps: the parts of a query over a whole survey, the
-    cross-sections of a query on ``width``, and each interval's detection of changes."""
+    cross-sections of a query on ``width``, and each interval's detection of changes. A feature
+    query over a whole survey matches its batches in ``workers`` processes (default: one per
+    core; :func:`queries.match.find`)."""
     q = parse(text)
-    return _order(_near(db, q, _select(db, q, text, progress)), q)
+    return _order(_near(db, q, _select(db, q, text, progress=progress, workers=workers)), q)
 
 
 def _order(features: list[dict[str, Any]], q: Query) -> list[dict[str, Any]]:
@@ -54,7 +58,9 @@ def _order(features: list[dict[str, Any]], q: Query) -> list[dict[str, Any]]:
     return features if q.limit is None else features[: q.limit]
 
 
-def _select(db: Database, q: Query, text: str, progress: Progress | None = None) -> list[dict[str, Any]]:
+def _select(
+    db: Database, q: Query, text: str, *, progress: Progress | None, workers: int | None
+) -> list[dict[str, Any]]:
     db.version(q.version)  # a clear error for an unknown version before any work
     if q.what == "tiles":
         return _tiles(db, q)
@@ -72,7 +78,7 @@ def _select(db: Database, q: Query, text: str, progress: Progress | None = None)
         )
     if q.what in OBJECTS:
         return _objects(db, q)
-    matches = find(db, q.version, q.what, level=q.level, bbox=q.bbox, progress=progress)
+    matches = find(db, q.version, q.what, level=q.level, bbox=q.bbox, progress=progress, workers=workers)
     if "width" in {c.attribute for c in q.conditions} | {q.order_by}:
         return _by_stretch(db, q, matches, progress=progress)
     return [f for f in map(_feature_of, matches) if _keep(f["properties"], q)]

@@ -214,6 +214,15 @@ class Database:
     def __repr__(self) -> str:
         return f"<tdb.Database {self.name!r}>"
 
+    @property
+    def location(self) -> str | None:
+        """The URL by which another process opens this database (with its password), or None
+        where none can (an SQLite database in memory)."""
+        url = self.engine.url
+        if url.get_backend_name() == "sqlite" and url.database in (None, "", ":memory:"):
+            return None
+        return url.render_as_string(hide_password=False)
+
     def __enter__(self) -> Database:
         return self
 

@@ -55,9 +55,12 @@ def test_a_query_by_parts_matches_the_query_at_once(db, name):
     with _in_parts(256):
         n = len(part_boxes(db, "v", level=resolve(name).level))
         assert n >= 2  # 300 m over 256 m parts (512 m at level 4: a block)
-        parted = find(db, "v", name, progress=lambda stage, done, total: seen.append((stage, done, total)))
-    assert _key(parted) == _key(whole)
-    assert seen[-1] == ("parts", n, n)
+        parted = find(
+            db, "v", name, workers=2, progress=lambda stage, done, total: seen.append((stage, done, total))
+        )
+        alone = find(db, "v", name, workers=1)
+    assert _key(parted) == _key(whole) == _key(alone)  # in two worker processes and in this one
+    assert ("parts", n, n) in seen and seen[-1][0] == "batches" and seen[-1][1] == seen[-1][2] >= 2
 
 
 class _Tiles:
@@ -128,7 +131,7 @@ def test_any_box_and_any_parts_give_the_matches_of_the_box_read_at_once(db, corn
     bbox = (float(x0), float(y0), float(x0 + size[0]), float(y0 + size[1]))
     whole = find(db, "v", "ditch", level=level, bbox=bbox)
     with _in_parts(part, nodes):
-        assert _key(find(db, "v", "ditch", level=level, bbox=bbox)) == _key(whole)
+        assert _key(find(db, "v", "ditch", level=level, bbox=bbox, workers=1)) == _key(whole)
 
 
 def test_parts_are_listed_only_where_the_version_holds_tiles(db):

@@ -14,7 +14,7 @@ from ingest.ground.by_blocks import ground_by_blocks
 from ingest.ground.contour import ContourParams, active_contour
 from ingest.ground.outliers import deep_pits, low_outliers, point_density
 from ingest.ground.sohn import SohnParams, sohn_dowman
-from ingest.ground.tiling import available_cores, by_tiles
+from ingest.ground.tiling import by_tiles
 from tdb.bbox import box_area
 from tdb.classes import NOISE, excluded
 from tdb.cloud import GROUND, PointCloud, check_spread, from_arrays
@@ -22,6 +22,7 @@ from tdb.errors import InputError
 from tdb.options import GroundMethod, parse
 from tdb.progress import Progress, or_silent
 from tdb.raster import MAX_CELLS
+from tdb.workers import available_cores
 
 STEP = "ground filter"
 

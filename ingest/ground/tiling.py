@@ -7,7 +7,6 @@ own terrain is done, and memory stays bounded by the tile size.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
@@ -16,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tdb.bbox import column_range
+from tdb.workers import one_blas_thread_here
 
 
 def by_tiles(
@@ -92,19 +92,3 @@ def _gather(
         out[near[mine]] = ground[mine]
         if progress:
             progress(done, len(jobs))
-
-
-def one_blas_thread_here() -> None:
-    """Hold this process's BLAS and OpenMP pools to one thread (a worker's initializer)."""
-    import scipy.linalg  # noqa: F401  (loads scipy's own BLAS, so that the limit reaches it)
-    from threadpoolctl import threadpool_limits
-
-    threadpool_limits(limits=1)
-
-
-def available_cores() -> int:
-    """Cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1

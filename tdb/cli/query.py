@@ -17,8 +17,20 @@ from tdb.errors import InputError
 @db_option
 @output_options
 @click.option("--png", type=click.Path(path_type=Path), help="Also draw the results over a hillshade.")
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    help="Match a whole survey's parts in this many processes [default: one per core].",
+)
 def command(
-    text: str, db_path: Path | str, fmt: str, out: Path | None, layer: str | None, append: bool, png: Path | None
+    text: str,
+    db_path: Path | str,
+    fmt: str,
+    out: Path | None,
+    layer: str | None,
+    append: bool,
+    png: Path | None,
+    workers: int | None,
 ) -> None:
     """Run a query (see docs/query-language.md). GeoJSON goes to stdout by default, in the
     database's CRS.
@@ -34,6 +46,7 @@ def command(
       tdb query 'SELECT ridge FROM v1' --db a.tdb --out ridges.geojson --png ridges.png
       tdb query 'SELECT ditch FROM v1 WHERE depth >= 0.5 ORDER BY length DESC LIMIT 10' --db a.tdb
       tdb query "SELECT changes FROM v1 TO v2 WHERE kind = 'ditch dug'" --db a.tdb --format table
+      tdb query 'SELECT ridge FROM county' --db county.tdb --workers 4 --format gpkg --out ridges.gpkg
     """
     import tdb
     from queries.language import parse
@@ -45,7 +58,7 @@ def command(
     query = parse(text)
     with tdb.open(db_path, readonly=True) as db:
         with Bars(unit="line") as bars:
-            features = run(db, text, progress=bars)
+            features = run(db, text, progress=bars, workers=workers)
         crs = db.crs(query.version)
         if png:
             from queries.area import overview_surface

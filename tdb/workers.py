@@ -1,0 +1,54 @@
+"""Worker processes on this machine: how many cores there are, and one way to start a pool of them."""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
+from multiprocessing import get_all_start_methods, get_context
+from multiprocessing.context import BaseContext
+
+
+def available_cores() -> int:
+    """Cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def one_blas_thread_here() -> None:
+    """Hold this process's BLAS and OpenMP pools to one thread (a worker's initializer)."""
+    import scipy.linalg  # noqa: F401  (loads scipy's own BLAS, so that the limit reaches it)
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1)
+
+
+@contextmanager
+def local_pool(workers: int, *, preload: str, initializer: Callable[[], None]) -> Iterator[ProcessPoolExecutor]:
+    """A pool of ``workers`` processes, each started ready to run the tasks of module ``preload``.
+
+    A child forked from this process would inherit its threads and locks. The fork server is a
+    fresh process that loads ``preload`` once; each worker forks from it ready to work. Where
+    there is none (Windows), each worker starts afresh and loads it itself. A failure in the
+    ``with`` body cancels the tasks not started.
+    """
+    context: BaseContext = get_context("spawn")
+    if "forkserver" in get_all_start_methods():
+        context = get_context("forkserver")
+        context.set_forkserver_preload([preload])
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=initializer) as pool:
+        # One process is spawned per task while none is idle. Each waits for the server to load
+        # the modules, so they are asked for from a thread while the caller goes on.
+        starter = threading.Thread(target=lambda: [pool.submit(int) for _ in range(workers)], daemon=True)
+        starter.start()
+        try:
+            yield pool
+        except BaseException:
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        finally:
+            starter.join()
