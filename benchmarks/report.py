@@ -664,29 +664,35 @@ def whole_query_section(out: list[str]) -> None:
     out += [
         "## A query and a diff over a whole version, by parts",
         "",
-        "`python -m benchmarks.whole_query [--copies N] [--at-once]`: the first version of "
+        "`python -m benchmarks.whole_query [--copies N] [--at-once] [--one-worker]`: the first version of "
         "`big_db`'s 1 km² synthetic pair (4 points/m²) written N × N times side by side, and "
         "`SELECT ditch FROM before` and `SELECT ridge FROM before` over the whole version, and the "
         "diff of the two versions over the whole area (co-registration, then `queries.changes.detect`), "
-        "each in a fresh process: by parts of about 1 km (`queries/parts.py`, as shipped) and, where "
-        "measured, read at once (– where not). *Matches*: for the diff, its regions. *Same*: both "
-        "ways found the same matches (regions with the same kind, tiles, area and dz).",
+        "each in a fresh process: by parts of about 1 km (`queries/parts.py`, as shipped: a feature "
+        "query's batches matched in one worker process per core, the diff in one process), where "
+        "measured by parts in one process alone, and read at once (– where not measured). Peak RSS: "
+        "of the process, and in brackets of its largest worker. *Matches*: for the diff, its "
+        "regions. *Same*: every way found the same matches (regions with the same kind, tiles, area "
+        "and dz).",
         "",
-        "| km² | 2 m tiles | query | matches | by parts s | by parts peak RSS MiB | at once s "
-        "| at once peak RSS MiB | same | machine |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| km² | 2 m tiles | query | matches | by parts s | by parts peak RSS MiB | one process s "
+        "| at once s | at once peak RSS MiB | same | machine |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for d in sorted(docs, key=lambda d: d["area_km2"]):
         for r in d["runs"]:
-            parts, whole = r["parts"], r.get("at_once")
+            parts, whole, alone = r["parts"], r.get("at_once"), r.get("parts_one_worker")
             once = f"{whole['seconds']:.1f} | {whole['peak_rss_mib']:,.0f}" if whole else "– | –"
+            single = f"{alone['seconds']:.1f}" if alone else "–"
             same = ("yes" if r["same_matches"] else "**no**") if "same_matches" in r else "–"
             what = f"`{r['filter']}`"
             if "coregister_s" in parts:
                 what = f"diff (after co-registration: {parts['coregister_s']:.1f} s)"
+            worker = f" ({parts['worker_peak_rss_mib']:,.0f})" if parts.get("worker_peak_rss_mib") else ""
             out.append(
                 f"| {d['area_km2']:,.0f} | {d['rows_2m']:,} | {what} | {parts['matches']:,} | "
-                f"{parts['seconds']:.1f} | {parts['peak_rss_mib']:,.0f} | {once} | {same} | {_machine(d)} |"
+                f"{parts['seconds']:.1f} | {parts['peak_rss_mib']:,.0f}{worker} | {single} | {once} | {same} "
+                f"| {_machine(d)} |"
             )
     out.append("")
 

@@ -25,6 +25,7 @@ from tdb.categories import NO_DATA
 from tdb.database import Database
 from tdb.progress import Progress, or_silent
 from tdb.tiles import TileIndex
+from tdb.workers import on_database
 
 NEIGHBOURS = np.array([(di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj])
 
@@ -71,39 +72,45 @@ def moved_by_parts(  # noqa: PLR0913 (the two versions, where, and how)
     lod: float,
     shift: Shift | None = None,
     progress: Progress | None = None,
+    workers: int = 1,
 ) -> MovedTiles:
     """The tiles both versions hold with data at ``level`` in ``bbox`` whose surface moved beyond
     their level of detection (at least ``lod``), ``after`` aligned by ``shift``, found in ``parts``
-    (:func:`queries.parts.part_boxes`)."""
+    (:func:`queries.parts.part_boxes`), in ``workers`` processes (:func:`tdb.workers.on_database`)."""
     report = or_silent(progress)
+    jobs = [_Part(before, after, part, level, bbox, lod, shift) for part in parts]
     found = []
     report("parts", 0, len(parts))
-    for k, part in enumerate(parts):
-        found.append(_moved_in(db, before, after, part, level=level, bbox=bbox, lod=lod, shift=shift))
+    for k, moved in enumerate(on_database(_moved_in, db, jobs, workers=workers, preload=__name__)):
+        found.append(moved)
         report("parts", k + 1, len(parts))
     return MovedTiles.joined([f for f in found if f is not None])
 
 
-def _moved_in(  # noqa: PLR0913 (the two versions, the part, and how)
-    db: Database,
-    before: str,
-    after: str,
-    part: Box,
-    *,
-    level: int,
-    bbox: Box | None,
-    lod: float,
-    shift: Shift | None,
-) -> MovedTiles | None:
-    xg, yg, c1, c2 = shared_tiles(db, before, after, level=level, bbox=clipped(part, bbox))
-    mine = holds(part, xg, yg) & (c1 != NO_DATA) & (c2 != NO_DATA)
+@dataclass(frozen=True)
+class _Part:
+    """One part of a diff by parts, and how its tiles are judged."""
+
+    before: str
+    after: str
+    box: Box
+    level: int
+    bbox: Box | None
+    lod: float
+    shift: Shift | None
+
+
+def _moved_in(db: Database, job: _Part) -> MovedTiles | None:
+    level, before, after = job.level, job.before, job.after
+    xg, yg, c1, c2 = shared_tiles(db, before, after, level=level, bbox=clipped(job.box, job.bbox))
+    mine = holds(job.box, xg, yg) & (c1 != NO_DATA) & (c2 != NO_DATA)
     if not mine.any():
         return None
     xg, yg, differ = xg[mine], yg[mine], (c1 != c2)[mine]
     lattices = [tile_lattice(db, name, level, xg, yg) for name in (before, after)]
-    if shift is not None and shift.applied:
-        lattices[1] = shifted_lattice(lattices[1], shift)
-    judged = tile_lod(db, before, after, xg, yg, level=level, lod=lod)
+    if job.shift is not None and job.shift.applied:
+        lattices[1] = shifted_lattice(lattices[1], job.shift)
+    judged = tile_lod(db, before, after, xg, yg, level=level, lod=job.lod)
     tested, dz, moved = MovingTiles(xg, yg, lattices[0], lattices[1], judged).moved(np.arange(len(xg)))
     t = tested[moved]
     return MovedTiles(xg[t], yg[t], dz[moved], judged.lod[t], judged.layer[:, t], differ[t])

@@ -38,6 +38,7 @@ from tdb.geojson import feature
 from tdb.outlines import outlines
 from tdb.progress import Progress
 from tdb.tiles import NodeLattice, node_lattice, tile_key
+from tdb.workers import available_cores
 
 # A region smaller than ``min_tiles`` (but of at least MIN_STRONG_TILES) counts when its mean
 # change is at least STRONG × LoD: a 20 m² mound 1.9 m high is no noise.
@@ -168,13 +169,14 @@ def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
     min_tiles: int = 8,
     shift: Shift | None = None,
     progress: Progress | None = None,
+    workers: int | None = None,
 ) -> list[dict[str, Any]]:
     """Changed regions between ``before`` and ``after`` as GeoJSON feature dicts.
 
     ``shift`` (:func:`queries.coregister.coregister`) aligns ``after`` to ``before`` first, and
     the level of detection is then at least what the residual on stable ground allows. An area
-    too wide to read at once is read in parts (:mod:`queries.change_parts`); ``progress``
-    (:mod:`tdb.progress`) follows them.
+    too wide to read at once is read in parts (:mod:`queries.change_parts`), in ``workers``
+    processes (default: one per core); ``progress`` (:mod:`tdb.progress`) follows them.
 
     Raises
     ------
@@ -189,7 +191,16 @@ def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
             db, before, after, level=level, bbox=bbox, min_tiles=min_tiles, shift=shift, lod=lod
         )
     moved = moved_by_parts(
-        db, before, after, level=level, bbox=bbox, parts=parts, lod=lod, shift=shift, progress=progress
+        db,
+        before,
+        after,
+        level=level,
+        bbox=bbox,
+        parts=parts,
+        lod=lod,
+        shift=shift,
+        progress=progress,
+        workers=workers or available_cores(),
     )
     seeds = np.flatnonzero(moved.differ)
     if len(seeds) == 0:

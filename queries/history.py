@@ -25,7 +25,7 @@ from tdb.options import Coregistration
 from tdb.progress import Progress, labelled
 
 
-def change_history(
+def change_history(  # noqa: PLR0913 (the versions, where, how, and how it runs)
     db: Database,
     versions: list[str],
     *,
@@ -34,6 +34,7 @@ def change_history(
     reference: str | None = None,
     method: str | Coregistration = Coregistration.AUTO,
     progress: Progress | None = None,
+    workers: int | None = None,
 ) -> list[dict[str, Any]]:
     """Changed regions across ``versions`` as GeoJSON features.
 
@@ -41,7 +42,8 @@ def change_history(
     of the pair. For more: one feature per history, with ``first_changed`` (the version in which
     it first differs), ``intervals`` (how many intervals it changed in), and per interval ending
     in version v, ``dz_v`` (mean height change, m; 0 where it did not change) and ``kind_v``.
-    ``progress`` (:mod:`tdb.progress`) follows each interval's detection.
+    ``progress`` (:mod:`tdb.progress`) follows each interval's detection, run in ``workers``
+    processes where it is read in parts (:func:`queries.changes.detect`).
     """
     ref = reference or versions[0]
     shifts = {
@@ -52,7 +54,7 @@ def change_history(
     for before, after in pairwise(versions):
         shift = between(shifts[before], shifts[after])
         report = labelled(progress, f"{before} to {after}") if progress is not None else None
-        found = detect(db, before, after, level=level, bbox=bbox, shift=shift, progress=report)
+        found = detect(db, before, after, level=level, bbox=bbox, shift=shift, progress=report, workers=workers)
         per_interval.append((after, found))
     if len(versions) == 2:
         return per_interval[0][1]

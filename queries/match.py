@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
-from functools import partial
 
 import numpy as np
 import shapely
@@ -35,12 +34,11 @@ from queries.profile import (
 from queries.relief import tile_relief, two_sided_relief
 from queries.shoulder import shoulders
 from tdb.database import Database
-from tdb.database import open as open_database
 from tdb.errors import FilterError
 from tdb.options import Measure
 from tdb.progress import Progress, or_silent
 from tdb.tiles import NodeLattice, node_lattice
-from tdb.workers import available_cores, local_pool, one_blas_thread_here
+from tdb.workers import available_cores, on_database
 
 REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
 LINK_TILES = 3.0  # extreme nodes of touching tiles lie at most 2√2 tiles apart
@@ -146,20 +144,12 @@ class _Batch:
 
 
 def _matched(db: Database, jobs: list[_Batch], *, workers: int, progress: Progress | None) -> list[Match]:
-    """The matches of every batch, in order; in a pool of ``workers`` processes where there are
-    several batches and the database can be opened by another process."""
+    """The matches of every batch, in order, in ``workers`` processes (:func:`tdb.workers.on_database`)."""
     report = or_silent(progress)
-    location, n = db.location, min(workers, len(jobs))
     out: list[Match] = []
-    if n <= 1 or location is None:
-        for done, job in enumerate(jobs, start=1):
-            out += _match_batch(db, job)
-            report("batches", done, len(jobs))
-        return out
-    with local_pool(n, preload=__name__, initializer=one_blas_thread_here) as pool:
-        for done, found in enumerate(pool.map(partial(_match_in_worker, location), jobs), start=1):
-            out += found
-            report("batches", done, len(jobs))
+    for done, found in enumerate(on_database(_match_batch, db, jobs, workers=workers, preload=__name__), start=1):
+        out += found
+        report("batches", done, len(jobs))
     return out
 
 
@@ -167,16 +157,6 @@ def _match_batch(db: Database, job: _Batch) -> list[Match]:
     px, py, pz, _ = db.points(job.version, level=job.level, bbox=job.box, ordered=False)
     t, lattice = job.tiles, node_lattice(px, py, pz, job.level)
     return match_tiles(t.xg, t.yg, t.code, lattice, job.flt, level=job.level, evidence=(t.own, t.facing))
-
-
-_OPENED: dict[str, Database] = {}  # in a worker: the databases it has opened, by location
-
-
-def _match_in_worker(location: str, job: _Batch) -> list[Match]:
-    """:func:`_match_batch` in a worker process, on the database it opens once."""
-    if location not in _OPENED:
-        _OPENED[location] = open_database(location, readonly=True)
-    return _match_batch(_OPENED[location], job)
 
 
 def _reach(level: int) -> float:

@@ -40,9 +40,9 @@ def run(
 ) -> list[dict[str, Any]]:
     """Run a query; return GeoJSON Feature dicts in the database's CRS. ``progress``
     (:mod:`tdb.progress`) follows the long steps: the parts of a query over a whole survey, the
-    cross-sections of a query on ``width``, and each interval's detection of changes. A feature
-    query over a whole survey matches its batches in ``workers`` processes (default: one per
-    core; :func:`queries.match.find`)."""
+    cross-sections of a query on ``width``, and each interval's detection of changes. A query over
+    a whole survey reads its parts in ``workers`` processes (default: one per core;
+    :func:`queries.match.find`, :func:`queries.changes.detect`)."""
     q = parse(text)
     return _order(_near(db, q, _select(db, q, text, progress=progress, workers=workers)), q)
 
@@ -65,7 +65,7 @@ def _select(
     if q.what == "tiles":
         return _tiles(db, q)
     if q.what == "changes":
-        return _changes(db, q, text, progress)
+        return _changes(db, q, text, progress=progress, workers=workers)
     if q.what == "object_changes":
         return _object_changes(db, q, text)
     if q.to_version is not None:
@@ -128,13 +128,16 @@ def _object_changes(db: Database, q: Query, text: str) -> list[dict[str, Any]]:
     return [f for f in object_changes(db, q.version, q.to_version, bbox=q.bbox) if _keep(f["properties"], q)]
 
 
-def _changes(db: Database, q: Query, text: str, progress: Progress | None = None) -> list[dict[str, Any]]:
+def _changes(
+    db: Database, q: Query, text: str, *, progress: Progress | None, workers: int | None
+) -> list[dict[str, Any]]:
     """Changes FROM a TO b [TO c …]: co-registered on stable ground, as :mod:`queries.history` says."""
     if q.to_version is None:
         raise QueryError("SELECT changes needs FROM <version> TO <version>", text=text, position=0)
     for name in q.to_versions:
         db.version(name)
-    found = change_history(db, [q.version, *q.to_versions], level=q.level or 2, bbox=q.bbox, progress=progress)
+    versions = [q.version, *q.to_versions]
+    found = change_history(db, versions, level=q.level or 2, bbox=q.bbox, progress=progress, workers=workers)
     return [f for f in found if _keep(f["properties"], q)]
 
 

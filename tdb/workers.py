@@ -4,11 +4,19 @@ from __future__ import annotations
 
 import os
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
+from functools import partial
 from multiprocessing import get_all_start_methods, get_context
 from multiprocessing.context import BaseContext
+from typing import TypeVar
+
+from tdb.database import Database
+from tdb.database import open as open_database
+
+Job = TypeVar("Job")
+Result = TypeVar("Result")
 
 
 def available_cores() -> int:
@@ -52,3 +60,28 @@ def local_pool(workers: int, *, preload: str, initializer: Callable[[], None]) -
             raise
         finally:
             starter.join()
+
+
+def on_database(
+    task: Callable[[Database, Job], Result], db: Database, jobs: Sequence[Job], *, workers: int, preload: str
+) -> Iterator[Result]:
+    """``task(db, job)`` for each of ``jobs``, the results in order: in a pool of ``workers``
+    processes (:func:`local_pool`, ``preload`` the module of ``task``), each of which opens the
+    database itself, where there are several jobs and another process can open it (one on
+    disk or on a server); else in this process."""
+    n, location = min(workers, len(jobs)), db.location
+    if n <= 1 or location is None:
+        for job in jobs:
+            yield task(db, job)
+        return
+    with local_pool(n, preload=preload, initializer=one_blas_thread_here) as pool:
+        yield from pool.map(partial(_in_worker, task, location), jobs)
+
+
+_OPENED: dict[str, Database] = {}  # in a worker: the databases it has opened, by location
+
+
+def _in_worker(task: Callable[[Database, Job], Result], location: str, job: Job) -> Result:
+    if location not in _OPENED:
+        _OPENED[location] = open_database(location, readonly=True)
+    return task(_OPENED[location], job)

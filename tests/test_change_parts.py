@@ -42,8 +42,9 @@ def test_a_diff_by_parts_finds_the_regions_of_the_diff_at_once(pair, level):
     assert len(whole) >= 3
     seen = []
     with mock.patch.multiple(queries.parts, PART=256, PART_NODES=1000):
-        parted = detect(pair, "a", "b", level=level, progress=lambda *a: seen.append(a))
-    assert _key(parted) == _key(whole)
+        parted = detect(pair, "a", "b", level=level, progress=lambda *a: seen.append(a), workers=2)
+        alone = detect(pair, "a", "b", level=level, workers=1)
+    assert _key(parted) == _key(whole) == _key(alone)  # in two worker processes and in this one
     assert len(seen) > 2 and seen[-1][0] == "parts" and seen[-1][1] == seen[-1][2] >= 2
 
 
@@ -54,7 +55,7 @@ def test_a_diff_by_parts_of_a_box_finds_the_regions_of_the_box_at_once(pair):
     whole = detect(pair, "a", "b", bbox=box)
     assert whole
     with mock.patch.multiple(queries.parts, PART=256, PART_NODES=1000):
-        assert _key(detect(pair, "a", "b", bbox=box)) == _key(whole)
+        assert _key(detect(pair, "a", "b", bbox=box, workers=1)) == _key(whole)
 
 
 @pytest.mark.slow

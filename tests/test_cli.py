@@ -173,6 +173,15 @@ def test_query_results_as_geojson_and_geopackage_agree(runner, ingested, tmp_pat
     assert r.exit_code != 0 and "belong to --format gpkg" in r.output
 
 
+def test_query_and_diff_take_a_number_of_workers(runner, ingested):
+    _, db = ingested
+    r = runner.invoke(main, ["query", "SELECT ditch FROM v1", "--db", str(db), "--workers", "1"])
+    assert r.exit_code == 0, r.output
+    for command in (["query", "SELECT ditch FROM v1"], ["diff", "v1", "v1"]):
+        r = runner.invoke(main, [*command, "--db", str(db), "--workers", "0"])
+        assert r.exit_code == 2 and "--workers" in r.output
+
+
 def test_query_draws_its_results(runner, ingested, tmp_path):
     _, db = ingested
     text = "SELECT tiles FROM v1 WHERE bbox(500010, 5500010, 500030, 5500030)"

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from tdb.cli.options import bbox_option, db_option, level_option
+from tdb.cli.options import bbox_option, db_option, level_option, workers_option
 from tdb.cli.output import check_files, check_output, emit, output_options
 from tdb.crs import check_same_horizontal, height_reference_note
 from tdb.options import Coregistration
@@ -37,6 +37,7 @@ PICTURE = 4_000_000  # most cells of a change map's background
     type=click.Path(path_type=Path),
     help="Also write the DEM of difference (after - before, m) as a GeoTIFF on the level's sub-grid.",
 )
+@workers_option
 def command(
     before: str,
     after: str,
@@ -50,6 +51,7 @@ def command(
     png: Path | None,
     coregister: str,
     dod: Path | None,
+    workers: int | None,
 ) -> None:
     """Compare the tile categories of two versions, gated by the level of detection, and
     report changed regions typed by the feature filters (ditch dug, ditch filled, …).
@@ -62,6 +64,7 @@ def command(
       tdb diff 2020 2024 --db park.tdb --format gpkg --out changes.gpkg
       tdb diff 2020 2024 --db park.tdb --bbox 500000,5500000,500400,5500400 --dod dod.tif
       tdb diff 2019 2023 --db park.tdb --coregister nuth-kaab   # surveys on different height datums
+      tdb diff 2020 2024 --db county.tdb --workers 4 --format gpkg --out changes.gpkg
     """
     import tdb
     from queries.changes import detect, level_of_detection
@@ -84,7 +87,7 @@ def command(
         if shift.method is not Coregistration.NONE:
             click.echo(f"co-registration ({shift.method}): {shift.describe()}", err=True)
         with Bars(unit="part") as bars:
-            found = detect(db, before, after, level=level, bbox=bbox, shift=shift, progress=bars)
+            found = detect(db, before, after, level=level, bbox=bbox, shift=shift, progress=bars, workers=workers)
         crs = db.crs(after)
         lod = level_of_detection(db, before, after, shift=shift)
         if dod:

@@ -69,6 +69,15 @@ def level_option(func: F) -> F:
     )(func)
 
 
+def workers_option(func: F) -> F:
+    """``--workers N``: the processes a whole survey's parts are read in."""
+    return click.option(
+        "--workers",
+        type=click.IntRange(min=1),
+        help="Read a whole survey's parts in this many processes [default: one per core].",
+    )(func)
+
+
 def _classes(_ctx: click.Context, _param: click.Parameter, value: str) -> tuple[int, ...]:
     from tdb.classes import parse_classes
     from tdb.errors import OptionError

@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from tdb.cli.options import db_option
+from tdb.cli.options import db_option, workers_option
 from tdb.cli.output import check_files, check_output, emit, output_options
 from tdb.errors import InputError
 
@@ -17,11 +17,7 @@ from tdb.errors import InputError
 @db_option
 @output_options
 @click.option("--png", type=click.Path(path_type=Path), help="Also draw the results over a hillshade.")
-@click.option(
-    "--workers",
-    type=click.IntRange(min=1),
-    help="Match a whole survey's parts in this many processes [default: one per core].",
-)
+@workers_option
 def command(
     text: str,
     db_path: Path | str,
