@@ -125,11 +125,34 @@ def find(
     grow = _reach(lv)
     boxes = parts_for(db, version, level=lv, bbox=bbox)
     if not boxes:
-        return _find_at_once(db, version, flt, level=lv, bbox=bbox, grow=grow)
-    tiles = part_candidates(db, version, flt, level=lv, bbox=bbox, parts=boxes, progress=progress)
-    groups = batches(tiles, flt, level=lv, grow=grow, bbox=bbox)
-    jobs = [_Batch(version, flt, lv, tiles.take(idx), box) for idx, box in groups]
-    return _matched(db, jobs, workers=workers or available_cores(), progress=progress)
+        found = _find_at_once(db, version, flt, level=lv, bbox=bbox, grow=grow)
+    else:
+        tiles = part_candidates(db, version, flt, level=lv, bbox=bbox, parts=boxes, progress=progress)
+        groups = batches(tiles, flt, level=lv, grow=grow, bbox=bbox)
+        jobs = [_Batch(version, flt, lv, tiles.take(idx), box) for idx, box in groups]
+        found = _matched(db, jobs, workers=workers or available_cores(), progress=progress)
+    if flt.max_on_mounds is None or not found:
+        return found
+    mound = resolve("mound")
+    mounds = find(db, version, mound, bbox=bbox, progress=progress, workers=workers)
+    return _off_mounds(found, [m.geometry for m in mounds], flt.max_on_mounds, reach=REACH_TILES * mound.level)
+
+
+def _off_mounds(matches: list[Match], mounds: list[shapely.Geometry], most: float, *, reach: float) -> list[Match]:
+    """The line ``matches`` less than ``most`` of whose length lies on ``mounds``: within
+    ``reach`` m of a mound match (its top tiles), where the terrain its relief is read against
+    lies. A line lying mostly on a mound is its crest."""
+    if not mounds:
+        return matches
+    near = [shapely.buffer(g, reach) for g in mounds]
+    tree = shapely.STRtree(near)
+    out = []
+    for m in matches:
+        hit = tree.query(m.geometry, predicate="intersects")
+        on = m.geometry.intersection(shapely.union_all([near[k] for k in hit])).length if len(hit) else 0.0
+        if not on >= most * m.geometry.length:
+            out.append(m)
+    return out
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ import tdb
 from ingest.pipeline import IngestOptions, ingest
 from ingest.synth import make_scene, sample
 from ingest.synth.forms import Feature
+from queries.filters import Match
 from queries.match import find, resolve
 from queries.profile import Stretch, height_trend
 
@@ -124,3 +125,43 @@ def test_the_ridge_filter_drops_a_crest_wider_than_a_ridge(tmp_path):
     assert _found_near(matches, rise, within=4.0) < 0.1
     # without the width test the rise is taken for a ridge: the test is what parts them
     assert _found_near(find(db, "v", replace(flt, max_width=None)), rise, within=4.0) > 0.5
+
+
+def _line(coords) -> Match:
+    g = shapely.LineString(coords)
+    return Match("ridge", 2, np.zeros(0, np.intp), g, g.length, 0.5)
+
+
+def test_a_line_mostly_on_a_mound_is_its_crest():
+    from queries.match import _off_mounds
+
+    top = shapely.box(-1, -1, 1, 1)  # a mound's top tile; its relief read 4 m off
+    crest = _line([(-4, 0), (4, 0)])  # all of it within the reach
+    end = _line([(1, 0), (7, 0)])  # two-thirds of it within the reach
+    beside = _line([(-4, 6), (4, 6)])
+    over = _line([(-30, 1), (30, 1)])  # a long line passing over it: a sixth on it
+
+    def kept(lines, mounds, most):
+        return [m.geometry for m in _off_mounds(lines, mounds, most, reach=4.0)]
+
+    assert kept([crest, end, beside, over], [top], 0.5) == [beside.geometry, over.geometry]
+    assert kept([crest, end, beside, over], [top], 0.7) == [end.geometry, beside.geometry, over.geometry]
+    assert kept([crest, over], [], 0.5) == [crest.geometry, over.geometry]
+    assert kept([crest, over], [top], 0.1) == []
+
+
+@pytest.mark.slow
+def test_the_ridge_filter_keeps_a_ridge_over_a_knoll_beside_a_mound(tmp_path):
+    ridge = Feature("ridge", _across(40), 0.8, 4.0, "U", 0)
+    knoll = Feature("mound", ridge.geometry.interpolate(0.5, normalized=True), 2.0, 10.0, "U", 1)
+    x, y = _across(110).coords[0]
+    mound = Feature("mound", shapely.Point(x + 60, y + 3), 1.8, 8.0, "U", 2)
+    db = _surveyed(tmp_path / "t.tdb", ridge, knoll, mound)
+    flt = resolve("ridge")
+    assert flt.max_on_mounds == 0.5
+    matches = find(db, "v", flt)
+    assert _found_near(matches, ridge) > 0.8  # a sixteenth of it on the knoll
+    mounds = shapely.union_all([m.geometry for m in find(db, "v", "mound")]).buffer(4.0)
+    assert not any(m.geometry.intersection(mounds).length >= 0.5 * m.geometry.length for m in matches)
+    # a bound a long ridge over a knoll does not pass either
+    assert _found_near(find(db, "v", replace(flt, max_on_mounds=0.02)), ridge) < 0.8
