@@ -53,7 +53,7 @@ def change_history(  # noqa: PLR0913 (the versions, where, how, and how it runs)
     per_interval = []
     for before, after in pairwise(versions):
         shift = between(shifts[before], shifts[after])
-        report = labelled(progress, f"{before} to {after}") if progress is not None else None
+        report = labelled(progress, f"{before} to {after}")
         found = detect(db, before, after, level=level, bbox=bbox, shift=shift, progress=report, workers=workers)
         per_interval.append((after, found))
     if len(versions) == 2:

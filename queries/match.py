@@ -36,7 +36,7 @@ from queries.shoulder import shoulders
 from tdb.database import Database
 from tdb.errors import FilterError
 from tdb.options import Measure
-from tdb.progress import Progress, or_silent
+from tdb.progress import Progress, labelled, or_silent
 from tdb.tiles import NodeLattice, node_lattice
 from tdb.workers import available_cores, on_database
 
@@ -134,7 +134,7 @@ def find(
     if flt.max_on_mounds is None or not found:
         return found
     mound = resolve("mound")
-    mounds = find(db, version, mound, bbox=bbox, progress=progress, workers=workers)
+    mounds = find(db, version, mound, bbox=bbox, progress=labelled(progress, "mounds"), workers=workers)
     return _off_mounds(found, [m.geometry for m in mounds], flt.max_on_mounds, reach=REACH_TILES * mound.level)
 
 

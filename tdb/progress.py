@@ -26,11 +26,14 @@ def or_silent(progress: Progress | None) -> Progress:
     return progress if progress is not None else silent
 
 
-def labelled(progress: Progress, label: str) -> Progress:
+def labelled(progress: Progress | None, label: str) -> Progress | None:
     """``progress`` with each step named after ``label`` too: the same steps of several runs
-    (the intervals of a history) told apart."""
+    (the intervals of a history) told apart. None where ``progress`` is."""
+    if progress is None:
+        return None
+    told = progress
 
     def report(step: str, done: int, total: int) -> None:
-        progress(f"{step} ({label})", done, total)
+        told(f"{step} ({label})", done, total)
 
     return report
