@@ -19,7 +19,7 @@ from queries.filters import (
     components,
     tile_lines,
 )
-from queries.parts import Box, Candidates, batches, part_candidates, parts_for
+from queries.parts import Box, Candidates, batches, clipped, line_batches, part_candidates, parts_for
 from queries.profile import (
     BAND,
     MIN_TREND_PIECES,
@@ -47,6 +47,7 @@ WIDE = 2  # the band of a form's second trend reading, in usual bands (_steady_a
 WIDTH_STEP = 0.05  # m: a fitted width this close to the band's limit reads at the limit
 ARM = PIECE  # m: an arm of a group is a line of its own where it runs at least this far from the junction
 SPREAD_READ = 2  # a form's spread: its relief read this many times farther off than its relief (max_spread)
+MOUND_MARGIN = 4  # tiles beyond a mound's reach that the mounds near a line are matched with (max_on_mounds)
 
 
 class _Sections:
@@ -133,25 +134,65 @@ def find(
         found = _matched(db, jobs, workers=workers or available_cores(), progress=progress)
     if flt.max_on_mounds is None or not found:
         return found
+    on = _on_mounds(db, version, found, flt.max_on_mounds, bbox=bbox, workers=workers, progress=progress)
+    return [m for m, crest in zip(found, on) if not crest]
+
+
+@dataclass(frozen=True)
+class _Mounds:
+    """A box whose mound matches are asked for, around a batch of lines."""
+
+    version: str
+    box: Box
+
+
+def _on_mounds(
+    db: Database,
+    version: str,
+    lines: list[Match],
+    most: float,
+    *,
+    bbox: Box | None,
+    workers: int | None,
+    progress: Progress | None,
+) -> NDArray[np.bool_]:
+    """Per line, whether ``most`` of its length or more lies on a mound (:func:`on_mounds`), the
+    mounds matched around each batch of lines (:func:`queries.parts.line_batches`) alone: their
+    boxes, grown by the mounds' reach and :data:`MOUND_MARGIN` tiles, hold the whole of every
+    mound near a line, in far less than the whole area's mound candidates."""
     mound = resolve("mound")
-    mounds = find(db, version, mound, bbox=bbox, progress=labelled(progress, "mounds"), workers=workers)
-    return _off_mounds(found, [m.geometry for m in mounds], flt.max_on_mounds, reach=REACH_TILES * mound.level)
+    reach = REACH_TILES * mound.level
+    grow = reach + MOUND_MARGIN * mound.level
+    groups = list(line_batches(shapely.bounds([m.geometry for m in lines]), level=mound.level, grow=grow))
+    jobs = [_Mounds(version, clipped(box, bbox)) for _, box in groups]
+    report = or_silent(labelled(progress, "mounds"))
+    found = on_database(_mounds_in, db, jobs, workers=workers or available_cores(), preload=__name__)
+    out = np.zeros(len(lines), bool)
+    for done, ((idx, _), mounds) in enumerate(zip(groups, found), start=1):
+        out[idx] = on_mounds([lines[k].geometry for k in idx], mounds, most, reach=reach)
+        report("batches", done, len(jobs))
+    return out
 
 
-def _off_mounds(matches: list[Match], mounds: list[shapely.Geometry], most: float, *, reach: float) -> list[Match]:
-    """The line ``matches`` less than ``most`` of whose length lies on ``mounds``: within
-    ``reach`` m of a mound match (its top tiles), where the terrain its relief is read against
-    lies. A line lying mostly on a mound is its crest."""
+def _mounds_in(db: Database, job: _Mounds) -> list[shapely.Geometry]:
+    return [m.geometry for m in find(db, job.version, "mound", bbox=job.box, workers=1)]
+
+
+def on_mounds(
+    lines: list[shapely.Geometry], mounds: list[shapely.Geometry], most: float, *, reach: float
+) -> NDArray[np.bool_]:
+    """Per line, whether ``most`` of its length or more lies on ``mounds``: within ``reach`` m of
+    a mound match (its top tiles), where the terrain its relief is read against lies. A line
+    lying mostly on a mound is its crest."""
+    out = np.zeros(len(lines), bool)
     if not mounds:
-        return matches
+        return out
     near = [shapely.buffer(g, reach) for g in mounds]
     tree = shapely.STRtree(near)
-    out = []
-    for m in matches:
-        hit = tree.query(m.geometry, predicate="intersects")
-        on = m.geometry.intersection(shapely.union_all([near[k] for k in hit])).length if len(hit) else 0.0
-        if not on >= most * m.geometry.length:
-            out.append(m)
+    for k, line in enumerate(lines):
+        hit = tree.query(line, predicate="intersects")
+        on = line.intersection(shapely.union_all([near[i] for i in hit])).length if len(hit) else 0.0
+        out[k] = on >= most * line.length
     return out
 
 

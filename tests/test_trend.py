@@ -133,7 +133,7 @@ def _line(coords) -> Match:
 
 
 def test_a_line_mostly_on_a_mound_is_its_crest():
-    from queries.match import _off_mounds
+    from queries.match import on_mounds
 
     top = shapely.box(-1, -1, 1, 1)  # a mound's top tile; its relief read 4 m off
     crest = _line([(-4, 0), (4, 0)])  # all of it within the reach
@@ -142,7 +142,8 @@ def test_a_line_mostly_on_a_mound_is_its_crest():
     over = _line([(-30, 1), (30, 1)])  # a long line passing over it: a sixth on it
 
     def kept(lines, mounds, most):
-        return [m.geometry for m in _off_mounds(lines, mounds, most, reach=4.0)]
+        crest = on_mounds([m.geometry for m in lines], mounds, most, reach=4.0)
+        return [m.geometry for m, on in zip(lines, crest) if not on]
 
     assert kept([crest, end, beside, over], [top], 0.5) == [beside.geometry, over.geometry]
     assert kept([crest, end, beside, over], [top], 0.7) == [end.geometry, beside.geometry, over.geometry]
