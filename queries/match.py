@@ -140,10 +140,12 @@ def find(
 
 @dataclass(frozen=True)
 class _Mounds:
-    """A box whose mound matches are asked for, around a batch of lines."""
+    """A batch of lines whose mounds are asked for, the box around them, and how near them."""
 
     version: str
     box: Box
+    lines: list[shapely.Geometry]
+    near: float
 
 
 def _on_mounds(
@@ -157,14 +159,14 @@ def _on_mounds(
     progress: Progress | None,
 ) -> NDArray[np.bool_]:
     """Per line, whether ``most`` of its length or more lies on a mound (:func:`on_mounds`), the
-    mounds matched around each batch of lines (:func:`queries.parts.line_batches`) alone: their
-    boxes, grown by the mounds' reach and :data:`MOUND_MARGIN` tiles, hold the whole of every
-    mound near a line, in far less than the whole area's mound candidates."""
+    mounds matched batch by batch of lines (:func:`queries.parts.line_batches`) from the candidate
+    tiles near them alone: within the mounds' reach and :data:`MOUND_MARGIN` tiles, which holds
+    the whole of every mound near a line, and is far less than the area's mound candidates."""
     mound = resolve("mound")
     reach = REACH_TILES * mound.level
     grow = reach + MOUND_MARGIN * mound.level
     groups = list(line_batches(shapely.bounds([m.geometry for m in lines]), level=mound.level, grow=grow))
-    jobs = [_Mounds(version, clipped(box, bbox)) for _, box in groups]
+    jobs = [_Mounds(version, clipped(box, bbox), [lines[k].geometry for k in idx], grow) for idx, box in groups]
     report = or_silent(labelled(progress, "mounds"))
     found = on_database(_mounds_in, db, jobs, workers=workers or available_cores(), preload=__name__)
     out = np.zeros(len(lines), bool)
@@ -175,7 +177,23 @@ def _on_mounds(
 
 
 def _mounds_in(db: Database, job: _Mounds) -> list[shapely.Geometry]:
-    return [m.geometry for m in find(db, job.version, "mound", bbox=job.box, workers=1)]
+    """The mound matches whose tiles lie within ``job.near`` of its lines."""
+    mound = resolve("mound")
+    level = mound.level
+    xg, yg, code = db.tiles(job.version, level=level, bbox=job.box, ordered=False)
+    centres = shapely.points(xg + level / 2, yg + level / 2)
+    near = np.zeros(len(xg), bool)
+    near[np.unique(shapely.STRtree(job.lines).query(centres, predicate="dwithin", distance=job.near)[0])] = True
+    own, facing = candidates(xg, yg, code, mound, level)
+    if not (own & near).any():
+        return []
+    x0, y0, x1, y1 = job.box
+    grow = _reach(level)
+    read = (x0 - grow, y0 - grow, x1 + grow, y1 + grow)
+    px, py, pz, _ = db.points(job.version, level=level, bbox=read, ordered=False)
+    lattice = node_lattice(px, py, pz, level)
+    found = match_tiles(xg, yg, code, lattice, mound, level=level, evidence=(own & near, facing & near))
+    return [m.geometry for m in found]
 
 
 def on_mounds(
