@@ -669,7 +669,7 @@ def whole_query_section(out: list[str]) -> None:
         "`SELECT ditch FROM before` and `SELECT ridge FROM before` over the whole version, and the "
         "diff of the two versions over the whole area (co-registration, then `queries.changes.detect`), "
         "each in a fresh process: by parts of about 1 km (`queries/parts.py`, as shipped: a feature "
-        "query's batches matched in one worker process per core, the diff in one process), where "
+        "query's batches and a diff's parts worked in one process per core), where "
         "measured by parts in one process alone, and read at once (– where not measured). Peak RSS: "
         "of the process, and in brackets of its largest worker. *Matches*: for the diff, its "
         "regions. *Same*: every way found the same matches (regions with the same kind, tiles, area "
