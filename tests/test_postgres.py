@@ -152,3 +152,22 @@ def test_compact_rewrites_a_server_database_in_place_and_refuses_a_file(pg, tmp_
     assert sorted(before.code.tolist()) == sorted(after.code.tolist())
     with pytest.raises(InputError, match="server database"):
         compact(pg, into=tmp_path / "copy.tdb")
+
+
+def test_a_whole_survey_query_in_worker_processes_on_postgresql(pg):
+    """Each worker opens the server database by its URL (with its password) and matches its batches."""
+    from unittest import mock
+
+    import queries.parts
+    from queries.match import find
+
+    ingest(sample(make_scene(seed=3, size=300), density=2.0, seed=3), pg, version="w")
+    assert pg.location is not None and pg.location.startswith("postgresql")
+    whole = find(pg, "w", "ditch")
+    with mock.patch.multiple(queries.parts, PART=256, PART_NODES=1000):  # parts of one block
+        parted = find(pg, "w", "ditch", workers=2)
+
+    def key(matches):
+        return sorted((f"{m.measure:.9f}", m.geometry.normalize().wkt) for m in matches)
+
+    assert whole and key(parted) == key(whole)
