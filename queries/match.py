@@ -179,20 +179,8 @@ def _on_mounds(
 def _mounds_in(db: Database, job: _Mounds) -> list[shapely.Geometry]:
     """The mound matches whose tiles lie within ``job.near`` of its lines."""
     mound = resolve("mound")
-    level = mound.level
-    xg, yg, code = db.tiles(job.version, level=level, bbox=job.box, ordered=False)
-    centres = shapely.points(xg + level / 2, yg + level / 2)
-    near = np.zeros(len(xg), bool)
-    near[np.unique(shapely.STRtree(job.lines).query(centres, predicate="dwithin", distance=job.near)[0])] = True
-    own, facing = candidates(xg, yg, code, mound, level)
-    if not (own & near).any():
-        return []
-    x0, y0, x1, y1 = job.box
-    grow = _reach(level)
-    read = (x0 - grow, y0 - grow, x1 + grow, y1 + grow)
-    px, py, pz, _ = db.points(job.version, level=level, bbox=read, ordered=False)
-    lattice = node_lattice(px, py, pz, level)
-    found = match_tiles(xg, yg, code, lattice, mound, level=level, evidence=(own & near, facing & near))
+    lv, near = mound.level, (job.lines, job.near)
+    found = _find_at_once(db, job.version, mound, level=lv, bbox=job.box, grow=_reach(lv), near=near)
     return [m.geometry for m in found]
 
 
@@ -248,10 +236,25 @@ def _reach(level: int) -> float:
 
 
 def _find_at_once(
-    db: Database, version: str, flt: Filter, *, level: int, bbox: Box | None, grow: float
+    db: Database,
+    version: str,
+    flt: Filter,
+    *,
+    level: int,
+    bbox: Box | None,
+    grow: float,
+    near: tuple[list[shapely.Geometry], float] | None = None,
 ) -> list[Match]:
+    """The matches of ``bbox`` read at once; with ``near`` (lines, distance), from the candidate
+    tiles whose centres lie that near the lines alone."""
     xg, yg, code = db.tiles(version, level=level, bbox=bbox)
     evidence = candidates(xg, yg, code, flt, level)
+    if near is not None:
+        lines, distance = near
+        centres = shapely.points(xg + level / 2, yg + level / 2)
+        close = np.zeros(len(xg), bool)
+        close[shapely.STRtree(lines).query(centres, predicate="dwithin", distance=distance)[0]] = True
+        evidence = (evidence[0] & close, evidence[1] & close)
     if not np.logical_or(*evidence).any():
         return []
     px, py, pz, _ = db.points(
