@@ -72,11 +72,12 @@ def moved_by_parts(  # noqa: PLR0913 (the two versions, where, and how)
     lod: float,
     shift: Shift | None = None,
     progress: Progress | None = None,
-    workers: int = 1,
+    workers: int | None = None,
 ) -> MovedTiles:
     """The tiles both versions hold with data at ``level`` in ``bbox`` whose surface moved beyond
     their level of detection (at least ``lod``), ``after`` aligned by ``shift``, found in ``parts``
-    (:func:`queries.parts.part_boxes`), in ``workers`` processes (:func:`tdb.workers.on_database`)."""
+    (:func:`queries.parts.part_boxes`), in ``workers`` processes (:func:`tdb.workers.on_database`;
+    None: one per core)."""
     report = or_silent(progress)
     jobs = [_Part(before, after, part, level, bbox, lod, shift) for part in parts]
     found = []

@@ -38,7 +38,6 @@ from tdb.geojson import feature
 from tdb.outlines import outlines
 from tdb.progress import Progress
 from tdb.tiles import NodeLattice, node_lattice, tile_key
-from tdb.workers import available_cores
 
 # A region smaller than ``min_tiles`` (but of at least MIN_STRONG_TILES) counts when its mean
 # change is at least STRONG × LoD: a 20 m² mound 1.9 m high is no noise.
@@ -200,7 +199,7 @@ def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
         lod=lod,
         shift=shift,
         progress=progress,
-        workers=workers or available_cores(),
+        workers=workers,
     )
     seeds = np.flatnonzero(moved.differ)
     if len(seeds) == 0:

@@ -38,7 +38,7 @@ from tdb.errors import FilterError
 from tdb.options import Measure
 from tdb.progress import Progress, labelled, or_silent
 from tdb.tiles import NodeLattice, node_lattice
-from tdb.workers import available_cores, on_database
+from tdb.workers import on_database
 
 REACH_TILES = 2  # the terrain beside a tile is read this many tiles away from its extreme node
 LINK_TILES = 3.0  # extreme nodes of touching tiles lie at most 2√2 tiles apart
@@ -131,7 +131,7 @@ def find(
         tiles = part_candidates(db, version, flt, level=lv, bbox=bbox, parts=boxes, progress=progress)
         groups = batches(tiles, flt, level=lv, grow=grow, bbox=bbox)
         jobs = [_Batch(version, flt, lv, tiles.take(idx), box) for idx, box in groups]
-        found = _matched(db, jobs, workers=workers or available_cores(), progress=progress)
+        found = _matched(db, jobs, workers=workers, progress=progress)
     if flt.max_on_mounds is None or not found:
         return found
     on = _on_mounds(db, version, found, flt.max_on_mounds, bbox=bbox, workers=workers, progress=progress)
@@ -168,7 +168,7 @@ def _on_mounds(
     groups = list(line_batches(shapely.bounds([m.geometry for m in lines]), level=mound.level, grow=grow))
     jobs = [_Mounds(version, clipped(box, bbox), [lines[k].geometry for k in idx], grow) for idx, box in groups]
     report = or_silent(labelled(progress, "mounds"))
-    found = on_database(_mounds_in, db, jobs, workers=workers or available_cores(), preload=__name__)
+    found = on_database(_mounds_in, db, jobs, workers=workers, preload=__name__)
     out = np.zeros(len(lines), bool)
     for done, ((idx, _), mounds) in enumerate(zip(groups, found), start=1):
         out[idx] = on_mounds([lines[k].geometry for k in idx], mounds, most, reach=reach)
@@ -213,7 +213,7 @@ class _Batch:
     box: Box
 
 
-def _matched(db: Database, jobs: list[_Batch], *, workers: int, progress: Progress | None) -> list[Match]:
+def _matched(db: Database, jobs: list[_Batch], *, workers: int | None, progress: Progress | None) -> list[Match]:
     """The matches of every batch, in order, in ``workers`` processes (:func:`tdb.workers.on_database`)."""
     report = or_silent(progress)
     out: list[Match] = []

@@ -63,13 +63,18 @@ def local_pool(workers: int, *, preload: str, initializer: Callable[[], None]) -
 
 
 def on_database(
-    task: Callable[[Database, Job], Result], db: Database, jobs: Sequence[Job], *, workers: int, preload: str
+    task: Callable[[Database, Job], Result],
+    db: Database,
+    jobs: Sequence[Job],
+    *,
+    workers: int | None,
+    preload: str,
 ) -> Iterator[Result]:
     """``task(db, job)`` for each of ``jobs``, the results in order: in a pool of ``workers``
-    processes (:func:`local_pool`, ``preload`` the module of ``task``), each of which opens the
-    database itself, where there are several jobs and another process can open it (one on
-    disk or on a server); else in this process."""
-    n, location = min(workers, len(jobs)), db.location
+    processes (None: one per core; :func:`local_pool`, ``preload`` the module of ``task``), each
+    of which opens the database itself, where there are several jobs and another process can
+    open it (one on disk or on a server); else in this process."""
+    n, location = min(workers or available_cores(), len(jobs)), db.location
     if n <= 1 or location is None:
         for job in jobs:
             yield task(db, job)
