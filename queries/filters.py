@@ -81,6 +81,8 @@ class Filter:
     max_trend: float | None = None  # queries.profile: the measure's change along a line, over itself, at most
     max_width: float | None = None  # queries.match: the widest a form is (m), where its usual band sees no feet
     max_on_mounds: float | None = None  # queries.match: the most of a line that may lie on mounds (a crest)
+    max_by_ditches: float | None = None  # queries.match: the most of a line that may lie by deeper ditches (a lip)
+    ditch_ratio: float = 1.0  # queries.match: a ditch by a line counts where this many times as deep as it is high
     around: bool = False  # queries.relief: the extreme stands out all round (mound, pit), not across a line
     facing: bool = False  # queries.facing: plane tiles facing each other across an edge join as well
 

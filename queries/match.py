@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import shapely
@@ -47,7 +48,7 @@ WIDE = 2  # the band of a form's second trend reading, in usual bands (_steady_a
 WIDTH_STEP = 0.05  # m: a fitted width this close to the band's limit reads at the limit
 ARM = PIECE  # m: an arm of a group is a line of its own where it runs at least this far from the junction
 SPREAD_READ = 2  # a form's spread: its relief read this many times farther off than its relief (max_spread)
-MOUND_MARGIN = 4  # tiles beyond a mound's reach that the mounds near a line are matched with (max_on_mounds)
+NEAR_MARGIN = 4  # tiles beyond a form's reach that the forms near a line are matched with (_forms_near)
 
 
 class _Sections:
@@ -132,71 +133,117 @@ def find(
         groups = batches(tiles, flt, level=lv, grow=grow, bbox=bbox)
         jobs = [_Batch(version, flt, lv, tiles.take(idx), box) for idx, box in groups]
         found = _matched(db, jobs, workers=workers, progress=progress)
-    if flt.max_on_mounds is None or not found:
+    if not found or (flt.max_on_mounds is None and flt.max_by_ditches is None):
         return found
-    on = _on_mounds(db, version, found, flt.max_on_mounds, bbox=bbox, workers=workers, progress=progress)
-    return [m for m, crest in zip(found, on) if not crest]
+    side = _on_other_forms(db, version, found, flt, bbox=bbox, workers=workers, progress=progress)
+    return [m for m, other in zip(found, side) if not other]
 
 
 @dataclass(frozen=True)
-class _Mounds:
-    """A batch of lines whose mounds are asked for, the box around them, and how near them."""
+class _Near:
+    """A batch of lines near which the matches of another filter are asked for, the box around
+    them, and how near them."""
 
     version: str
+    form: str
     box: Box
     lines: list[shapely.Geometry]
     near: float
 
 
-def _on_mounds(
+def _on_other_forms(
     db: Database,
     version: str,
     lines: list[Match],
-    most: float,
+    flt: Filter,
     *,
     bbox: Box | None,
     workers: int | None,
     progress: Progress | None,
 ) -> NDArray[np.bool_]:
-    """Per line, whether ``most`` of its length or more lies on a mound (:func:`on_mounds`), the
-    mounds matched batch by batch of lines (:func:`queries.parts.line_batches`) from the candidate
-    tiles near them alone: within the mounds' reach and :data:`MOUND_MARGIN` tiles, which holds
-    the whole of every mound near a line, and is far less than the area's mound candidates."""
-    mound = resolve("mound")
-    reach = REACH_TILES * mound.level
-    grow = reach + MOUND_MARGIN * mound.level
-    groups = list(line_batches(shapely.bounds([m.geometry for m in lines]), level=mound.level, grow=grow))
-    jobs = [_Mounds(version, clipped(box, bbox), [lines[k].geometry for k in idx], grow) for idx, box in groups]
-    report = or_silent(labelled(progress, "mounds"))
-    found = on_database(_mounds_in, db, jobs, workers=workers, preload=__name__)
+    """Per line, whether it is the side of another form: a mound's crest (``max_on_mounds``) or
+    the lip of a ditch deeper than the line is high (``max_by_ditches``), by :func:`on_forms`
+    within the reach that the line's relief is read across."""
     out = np.zeros(len(lines), bool)
-    for done, ((idx, _), mounds) in enumerate(zip(groups, found), start=1):
-        out[idx] = on_mounds([lines[k].geometry for k in idx], mounds, most, reach=reach)
+    ask = partial(_forms_near, db, version, lines, bbox=bbox, workers=workers)
+    if flt.max_on_mounds is not None:
+        for idx, mounds in ask("mound", progress=labelled(progress, "mounds")):
+            out[idx] |= on_forms(_geoms(lines, idx), _geoms(mounds), flt.max_on_mounds, reach=_ring("mound"))
+    if flt.max_by_ditches is not None:
+        heights = np.array([m.measure for m in lines])
+        for idx, ditches in ask("ditch", progress=labelled(progress, "ditches")):
+            sizes = (np.array([d.measure for d in ditches]), flt.ditch_ratio * heights[idx])
+            most = flt.max_by_ditches
+            out[idx] |= on_forms(_geoms(lines, idx), _geoms(ditches), most, reach=_ring("ditch"), sizes=sizes)
+    return out
+
+
+def _geoms(matches: list[Match], idx: Iterable[int] | None = None) -> list[shapely.Geometry]:
+    return [matches[k].geometry for k in (range(len(matches)) if idx is None else idx)]
+
+
+def _ring(form: str) -> float:
+    """How far off a match of the built-in filter ``form`` (m) the terrain its relief is read against lies."""
+    return REACH_TILES * resolve(form).level
+
+
+def _forms_near(
+    db: Database,
+    version: str,
+    lines: list[Match],
+    form: str,
+    *,
+    bbox: Box | None,
+    workers: int | None,
+    progress: Progress | None,
+) -> list[tuple[NDArray[np.intp], list[Match]]]:
+    """Per batch of lines (:func:`queries.parts.line_batches`; the lines' indices), the matches of
+    the built-in filter ``form`` from the candidate tiles near them alone: within the form's reach
+    and :data:`NEAR_MARGIN` tiles, which holds the whole of a mound near a line and a ditch's
+    stretch beside it, and is far less than the area's candidates."""
+    flt = resolve(form)
+    grow = (REACH_TILES + NEAR_MARGIN) * flt.level
+    groups = list(line_batches(shapely.bounds([m.geometry for m in lines]), level=flt.level, grow=grow))
+    jobs = [_Near(version, form, clipped(box, bbox), _geoms(lines, idx), grow) for idx, box in groups]
+    report = or_silent(progress)
+    out = []
+    for done, ((idx, _), found) in enumerate(
+        zip(groups, on_database(_forms_in, db, jobs, workers=workers, preload=__name__)), start=1
+    ):
+        out.append((idx, found))
         report("batches", done, len(jobs))
     return out
 
 
-def _mounds_in(db: Database, job: _Mounds) -> list[shapely.Geometry]:
-    """The mound matches whose tiles lie within ``job.near`` of its lines."""
-    mound = resolve("mound")
-    lv, near = mound.level, (job.lines, job.near)
-    found = _find_at_once(db, job.version, mound, level=lv, bbox=job.box, grow=_reach(lv), near=near)
-    return [m.geometry for m in found]
+def _forms_in(db: Database, job: _Near) -> list[Match]:
+    """The matches of ``job.form`` whose tiles lie within ``job.near`` of its lines."""
+    flt = resolve(job.form)
+    lv, near = flt.level, (job.lines, job.near)
+    return _find_at_once(db, job.version, flt, level=lv, bbox=job.box, grow=_reach(lv), near=near)
 
 
-def on_mounds(
-    lines: list[shapely.Geometry], mounds: list[shapely.Geometry], most: float, *, reach: float
+def on_forms(
+    lines: list[shapely.Geometry],
+    forms: list[shapely.Geometry],
+    most: float,
+    *,
+    reach: float,
+    sizes: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> NDArray[np.bool_]:
-    """Per line, whether ``most`` of its length or more lies on ``mounds``: within ``reach`` m of
-    a mound match (its top tiles), where the terrain its relief is read against lies. A line
-    lying mostly on a mound is its crest."""
+    """Per line, whether ``most`` of its length or more lies within ``reach`` m of ``forms``
+    (matches of another filter: a mound's top tiles, a ditch's bottom), where the terrain the
+    line's relief is read against lies: the line is that form's side (a mound's crest, a ditch's
+    lip). ``sizes`` (each form's measure, each line's least): a form counts for a line only where
+    its measure reaches the line's least."""
     out = np.zeros(len(lines), bool)
-    if not mounds:
+    if not forms:
         return out
-    near = [shapely.buffer(g, reach) for g in mounds]
+    near = [shapely.buffer(g, reach) for g in forms]
     tree = shapely.STRtree(near)
     for k, line in enumerate(lines):
         hit = tree.query(line, predicate="intersects")
+        if sizes is not None:
+            hit = hit[sizes[0][hit] >= sizes[1][k]]
         on = line.intersection(shapely.union_all([near[i] for i in hit])).length if len(hit) else 0.0
         out[k] = on >= most * line.length
     return out

@@ -60,9 +60,12 @@ def test_a_query_by_parts_matches_the_query_at_once(db, name):
         )
         alone = find(db, "v", name, workers=1)
     assert _key(parted) == _key(whole) == _key(alone)  # in two worker processes and in this one
-    own = [s for s in seen if not s[0].endswith("(mounds)")]  # a ridge query asks for the mounds too
+    own = [s for s in seen if not s[0].endswith(("(mounds)", "(ditches)"))]  # a ridge asks for mounds and ditches
     assert ("parts", n, n) in own and own[-1][0] == "batches" and own[-1][1] == own[-1][2] >= 2
-    assert (len(own) < len(seen)) == (resolve(name).max_on_mounds is not None)
+    flt = resolve(name)
+    assert {s[0] for s in seen} - {s[0] for s in own} == {
+        f"batches ({form})" for form, on in (("mounds", flt.max_on_mounds), ("ditches", flt.max_by_ditches)) if on
+    }
 
 
 class _Tiles:

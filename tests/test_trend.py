@@ -133,7 +133,7 @@ def _line(coords) -> Match:
 
 
 def test_a_line_mostly_on_a_mound_is_its_crest():
-    from queries.match import on_mounds
+    from queries.match import on_forms
 
     top = shapely.box(-1, -1, 1, 1)  # a mound's top tile; its relief read 4 m off
     crest = _line([(-4, 0), (4, 0)])  # all of it within the reach
@@ -142,13 +142,65 @@ def test_a_line_mostly_on_a_mound_is_its_crest():
     over = _line([(-30, 1), (30, 1)])  # a long line passing over it: a sixth on it
 
     def kept(lines, mounds, most):
-        crest = on_mounds([m.geometry for m in lines], mounds, most, reach=4.0)
+        crest = on_forms([m.geometry for m in lines], mounds, most, reach=4.0)
         return [m.geometry for m, on in zip(lines, crest) if not on]
 
     assert kept([crest, end, beside, over], [top], 0.5) == [beside.geometry, over.geometry]
     assert kept([crest, end, beside, over], [top], 0.7) == [end.geometry, beside.geometry, over.geometry]
     assert kept([crest, over], [], 0.5) == [crest.geometry, over.geometry]
     assert kept([crest, over], [top], 0.1) == []
+
+
+def test_a_line_mostly_by_a_deeper_ditch_is_its_lip():
+    from queries.match import on_forms
+
+    ditch = shapely.LineString([(-50, 0), (50, 0)])
+    lip = _line([(-40, 3), (40, 3)])  # 0.5 m high, all of it within the reach
+    dike = _line([(-40, -3), (40, -3)])  # 1.0 m high
+    lines = [lip, dike]
+
+    def by(depth, ratio):
+        least = ratio * np.array([0.5, 1.0])
+        return on_forms([m.geometry for m in lines], [ditch], 0.5, reach=4.0, sizes=(np.array([depth]), least))
+
+    assert by(0.8, 1.25).tolist() == [True, False]  # deeper than the lip is high, not than the dike
+    assert by(1.5, 1.25).tolist() == [True, True]
+    assert by(0.6, 1.25).tolist() == [False, False]
+    assert by(np.nan, 1.0).tolist() == [False, False]  # a ditch whose depth was not read does not count
+
+
+def _lips(db, matches):
+    """The matches longer than 50 m half or more of which lies within 4 m of a ditch match."""
+    near = shapely.union_all([d.geometry for d in find(db, "v", "ditch")]).buffer(4.0)
+    return [m for m in matches if m.geometry.intersection(near).length >= 0.5 * m.length and m.length > 50]
+
+
+@pytest.mark.slow
+def test_the_ridge_filter_drops_the_lip_of_a_ditch_along_a_brink(tmp_path):
+    """A ditch 1.2 m deep dug along the brink of a 1.5 m step: the strip between them stands above
+    the ditch and the step's foot alike, a crest whose relief on one side is the ditch's."""
+    brink = _across(50)
+    step = Feature("edge", brink, 1.5, 6.0, "V", 0, terrace=1000.0)
+    ditch = Feature("ditch", shapely.affinity.translate(brink, 0, 5.0), 1.2, 3.7, "U", 1)
+    db = _surveyed(tmp_path / "t.tdb", step, ditch)
+    flt = resolve("ridge")
+    assert flt.max_by_ditches == 0.5
+    assert _found_near(find(db, "v", "ditch"), ditch) > 0.8
+    assert _lips(db, find(db, "v", replace(flt, max_by_ditches=None)))  # the lip is read as a ridge
+    assert not _lips(db, find(db, "v", flt))
+
+
+@pytest.mark.slow
+def test_the_ridge_filter_keeps_a_dike_with_a_shallower_ditch_at_its_foot(tmp_path):
+    dike = Feature("ridge", _across(80), 1.2, 5.0, "U", 0)
+    foot = Feature("ditch", shapely.affinity.translate(dike.geometry, 0, 4.0), 0.6, 2.5, "V", 1)
+    db = _surveyed(tmp_path / "t.tdb", dike, foot)
+    assert _found_near(find(db, "v", "ditch"), foot) > 0.8
+    matches = find(db, "v", "ridge")
+    assert _found_near(matches, dike) > 0.8
+    assert _lips(db, matches)  # it lies by the ditch, yet stands higher than the ditch is deep
+    # a ratio that lets the shallower ditch count drops it: the depth test is what keeps it
+    assert _found_near(find(db, "v", replace(resolve("ridge"), ditch_ratio=0.2)), dike) < 0.2
 
 
 @pytest.mark.slow
