@@ -169,6 +169,22 @@ def test_a_line_mostly_by_a_deeper_ditch_is_its_lip():
     assert by(np.nan, 1.0).tolist() == [False, False]  # a ditch whose depth was not read does not count
 
 
+@pytest.mark.slow
+def test_the_ditch_filter_drops_a_trough_wider_than_a_ditch(tmp_path):
+    """A broad natural trough 1.2 m deep and 8 m wide that keeps its size along its line: the
+    usual 6 m cross-sections cannot see its banks, and ones twice as wide find them farther apart
+    than a ditch's (max_width)."""
+    ditch = Feature("ditch", _across(40), 0.8, 3.0, "U", 0)
+    trough = Feature("valley", _across(105), 1.2, 8.0, "natural", 1)
+    db = _surveyed(tmp_path / "t.tdb", ditch, trough)
+    flt = resolve("ditch")
+    assert flt.max_width == 6.0
+    matches = find(db, "v", flt)
+    assert _found_near(matches, ditch, within=4.0) > 0.8
+    assert _found_near(matches, trough, within=4.0) < 0.1
+    assert _found_near(find(db, "v", replace(flt, max_width=None)), trough, within=4.0) > 0.3
+
+
 def _lips(db, matches):
     """The matches longer than 50 m half or more of which lies within 4 m of a ditch match."""
     near = shapely.union_all([d.geometry for d in find(db, "v", "ditch")]).buffer(4.0)
