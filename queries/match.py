@@ -439,21 +439,39 @@ def _steady_along(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
 
 
 def _narrow(sections: _Sections, flt: Filter) -> NDArray[np.bool_]:
-    """Per match, whether it is no wider than ``flt.max_width``. Measured only where its usual
-    cross-sections read it as wide as they can see, from ones :data:`WIDE` times as wide; where
-    these read it as wide as they can see as well, its feet were not found and it passes. A
-    spur, or a field edge whose terrace falls back behind its bank, is a crest the usual band
-    cannot see the feet of."""
+    """Per match, whether it is no wider than ``flt.max_width`` (:func:`broader`). Read only where
+    the filter fits its lines' cross-sections anyway (:func:`fits_lines`), and there only where
+    its usual cross-sections read a line as wide as they can see, from ones :data:`WIDE` times as
+    wide. A spur, or a field edge whose terrace falls back behind its bank, is a crest the usual
+    band cannot see the feet of."""
     narrow = np.ones(len(sections.geoms), bool)
-    if flt.max_width is None or not _line_with_sides(flt):
+    if flt.max_width is None or not fits_lines(flt):
         return narrow
     sections.fit(range(len(sections.geoms)))
-    whole = [k for k in range(len(sections.geoms)) if _whole_band(sections.of(k), BAND)]
+    whole = [k for k in range(len(sections.geoms)) if reads_whole_band(sections.of(k))]
     sections.fit(whole, band=WIDE * BAND)
     for k in whole:
-        wide = sections.of(k, band=WIDE * BAND)
-        narrow[k] = not (width_of(wide) > flt.max_width and not _whole_band(wide, WIDE * BAND))
+        narrow[k] = not broader(sections.of(k, band=WIDE * BAND), flt.max_width)
     return narrow
+
+
+def fits_lines(flt: Filter) -> bool:
+    """Whether matching fits the cross-sections of the filter's lines anyway (it bounds their
+    height trend), and so reads their width against ``max_width`` too. Fitting every line costs
+    several times a query without it: other filters' widths are read where a query asks for
+    widths (:mod:`queries.run`)."""
+    return _line_with_sides(flt) and flt.max_trend is not None
+
+
+def reads_whole_band(pieces: list[Stretch]) -> bool:
+    """Whether the usual cross-sections read their line as wide as they can see."""
+    return _whole_band(pieces, BAND)
+
+
+def broader(wide: list[Stretch], most: float) -> bool:
+    """Whether cross-sections :data:`WIDE` times the usual band find their line wider than
+    ``most`` m, and not as wide as they can see themselves (there no feet were found)."""
+    return bool(width_of(wide) > most and not _whole_band(wide, WIDE * BAND))
 
 
 def _whole_band(pieces: list[Stretch], band: float) -> bool:

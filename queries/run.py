@@ -7,14 +7,15 @@ from typing import Any
 
 import numpy as np
 import shapely
+from numpy.typing import NDArray
 
-from queries.filters import Match
+from queries.filters import Filter, Match
 from queries.history import change_history
 from queries.language import Query, parse
-from queries.match import find, resolve
+from queries.match import WIDE, broader, find, reads_whole_band, resolve
 from queries.object_changes import object_changes
 from queries.parts import line_batches
-from queries.profile import SIDE, Nodes, Stretch, stretches_of
+from queries.profile import BAND, Nodes, Stretch, side_of, stretches_of
 from tdb.categories import all_categories
 from tdb.database import Database
 from tdb.errors import QueryError
@@ -166,29 +167,37 @@ def _by_stretch(
     if not matches:
         return []
     name = flt.measure.value
-    pieces = _stretches_by_parts(db, q.version, matches, flt.measure, report)
+    pieces, broad = _stretches_by_parts(db, q.version, matches, flt, report)
     by_piece = Query(q.what, q.version, conditions=[c for c in q.conditions if c.attribute in ("width", name)])
-    return [f for m, own in zip(matches, pieces) for f in _passing_runs(m, own, q, by_piece, name)]
+    kept = [(m, own) for m, own, b in zip(matches, pieces, broad) if not b]
+    return [f for m, own in kept for f in _passing_runs(m, own, q, by_piece, name)]
 
 
 def _stretches_by_parts(
-    db: Database, version: str, matches: list[Match], measure: Measure, report: Progress
-) -> list[list[Stretch]]:
+    db: Database, version: str, matches: list[Match], flt: Filter, report: Progress
+) -> tuple[list[list[Stretch]], NDArray[np.bool_]]:
     """Each match's stretches (:func:`queries.profile.stretches_of`), the matches taken part by
-    part (:func:`queries.parts.line_batches`), each part's with the stored points of its box."""
+    part (:func:`queries.parts.line_batches`), each part's with the stored points of its box; and
+    per match whether it is broader than ``flt.max_width`` (:func:`queries.match.broader`, read
+    where the usual stretches see no feet), which matching reads for some filters only."""
     level = matches[0].level
     geoms = [m.geometry for m in matches]
     out: list[list[Stretch]] = [[] for _ in matches]
+    broad = np.zeros(len(matches), bool)
     done = 0
-    for idx, box in line_batches(shapely.bounds(geoms), level=level, grow=SIDE[1] + level):
+    for idx, box in line_batches(shapely.bounds(geoms), level=level, grow=side_of(WIDE * BAND)[1] + level):
         nodes = Nodes.of(*db.points(version, level=level, bbox=box, ordered=False)[:3])
         for s in range(0, len(idx), FIT_BATCH):
             report("cross-sections", done, len(matches))
             batch = idx[s : s + FIT_BATCH]
-            for k, own in zip(batch, stretches_of([geoms[k] for k in batch], nodes, measure=measure)):
+            for k, own in zip(batch, stretches_of([geoms[k] for k in batch], nodes, measure=flt.measure)):
                 out[k] = own
+            if flt.max_width is not None:
+                whole = [k for k in batch if reads_whole_band(out[k])]
+                wide = stretches_of([geoms[k] for k in whole], nodes, measure=flt.measure, band=WIDE * BAND)
+                broad[whole] = [broader(w, flt.max_width) for w in wide]
             done += len(batch)
-    return out
+    return out, broad
 
 
 def _passing_runs(m: Match, pieces: list[Stretch], q: Query, by_piece: Query, name: str) -> list[dict[str, Any]]:
