@@ -25,7 +25,9 @@ test: lint
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install -q -e ".[dev,bench]"
-	@command -v grass >/dev/null || echo "GRASS is not installed (Debian: apt install grass-core): the geomorphon peer is skipped"
+	@command -v grass >/dev/null || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null && \
+		apt-get install -y -q --no-install-recommends grass-core >/dev/null; } || \
+		echo "GRASS is not installed (Debian: apt install grass-core): the geomorphon peer is skipped"
 	$(BIN)/python -m benchmarks.run_all
 
 clean:
