@@ -32,7 +32,8 @@ def feature_peers_section(
         f"seeds {', '.join(runs)}). Machine: {machine}.",
         "",
         "Recall / precision / F1 by length. tdb's settings were chosen on other scenes (plain seeds 1–10 and "
-        "rugged seeds 21–25, the relief's plane rule and the ridge's width bound on rugged seeds 21–35 too); "
+        "rugged seeds 21–25; the relief's plane rule, the width bounds, the mound and ditch-lip rules on "
+        "rugged seeds 21–35 too); "
         "each peer's setting is chosen leave-one-scene-out (held out), and beside it the setting best on all "
         "five (tuned).",
         "",
