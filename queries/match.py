@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
-from functools import partial
 
 import numpy as np
 import shapely
@@ -127,7 +126,7 @@ def find(
     grow = _reach(lv)
     boxes = parts_for(db, version, level=lv, bbox=bbox)
     if not boxes:
-        found = _find_at_once(db, version, flt, level=lv, bbox=bbox, grow=grow)
+        found = _find_each_at_once(db, version, [flt], level=lv, bbox=bbox, grow=grow)[0]
     else:
         tiles = part_candidates(db, version, flt, level=lv, bbox=bbox, parts=boxes, progress=progress)
         groups = batches(tiles, flt, level=lv, grow=grow, bbox=bbox)
@@ -141,14 +140,17 @@ def find(
 
 @dataclass(frozen=True)
 class _Near:
-    """A batch of lines near which the matches of another filter are asked for, the box around
+    """A batch of lines near which the matches of other filters are asked for, the box around
     them, and how near them."""
 
     version: str
-    form: str
+    forms: tuple[str, ...]
     box: Box
     lines: list[shapely.Geometry]
     near: float
+
+
+PLURALS = {"mound": "mounds", "ditch": "ditches"}  # the forms a line may be the side of, named in the progress
 
 
 def _on_other_forms(
@@ -164,17 +166,21 @@ def _on_other_forms(
     """Per line, whether it is the side of another form: a mound's crest (``max_on_mounds``) or
     the lip of a ditch deeper than the line is high (``max_by_ditches``), by :func:`on_forms`
     within the reach that the line's relief is read across."""
+    rules = (("mound", flt.max_on_mounds), ("ditch", flt.max_by_ditches))
+    asked = tuple(form for form, most in rules if most is not None)
+    reports = [labelled(progress, PLURALS[form]) for form in asked]
+    found = _forms_near(db, version, lines, asked, bbox=bbox, workers=workers, reports=reports)
+    heights = np.array([m.measure for m in lines])
     out = np.zeros(len(lines), bool)
-    ask = partial(_forms_near, db, version, lines, bbox=bbox, workers=workers)
-    if flt.max_on_mounds is not None:
-        for idx, mounds in ask("mound", progress=labelled(progress, "mounds")):
-            out[idx] |= on_forms(_geoms(lines, idx), _geoms(mounds), flt.max_on_mounds, reach=_ring("mound"))
-    if flt.max_by_ditches is not None:
-        heights = np.array([m.measure for m in lines])
-        for idx, ditches in ask("ditch", progress=labelled(progress, "ditches")):
+    for idx, by_form in found:
+        geoms = _geoms(lines, idx)
+        if flt.max_on_mounds is not None:
+            out[idx] |= on_forms(geoms, _geoms(by_form["mound"]), flt.max_on_mounds, reach=_ring("mound"))
+        if flt.max_by_ditches is not None:
+            ditches = by_form["ditch"]
             sizes = (np.array([d.measure for d in ditches]), flt.ditch_ratio * heights[idx])
             most = flt.max_by_ditches
-            out[idx] |= on_forms(_geoms(lines, idx), _geoms(ditches), most, reach=_ring("ditch"), sizes=sizes)
+            out[idx] |= on_forms(geoms, _geoms(ditches), most, reach=_ring("ditch"), sizes=sizes)
     return out
 
 
@@ -191,35 +197,37 @@ def _forms_near(
     db: Database,
     version: str,
     lines: list[Match],
-    form: str,
+    forms: tuple[str, ...],
     *,
     bbox: Box | None,
     workers: int | None,
-    progress: Progress | None,
-) -> list[tuple[NDArray[np.intp], list[Match]]]:
+    reports: list[Progress | None],
+) -> list[tuple[NDArray[np.intp], dict[str, list[Match]]]]:
     """Per batch of lines (:func:`queries.parts.line_batches`; the lines' indices), the matches of
-    the built-in filter ``form`` from the candidate tiles near them alone: within the form's reach
-    and :data:`NEAR_MARGIN` tiles, which holds the whole of a mound near a line and a ditch's
-    stretch beside it, and is far less than the area's candidates."""
-    flt = resolve(form)
-    grow = (REACH_TILES + NEAR_MARGIN) * flt.level
-    groups = list(line_batches(shapely.bounds([m.geometry for m in lines]), level=flt.level, grow=grow))
-    jobs = [_Near(version, form, clipped(box, bbox), _geoms(lines, idx), grow) for idx, box in groups]
-    report = or_silent(progress)
+    each built-in filter of ``forms`` from the candidate tiles near them alone: within the forms'
+    reach and :data:`NEAR_MARGIN` tiles, which holds the whole of a mound near a line and a
+    ditch's stretch beside it, and is far less than the area's candidates. Each batch's tiles and
+    points are read once for all the forms, at the first one's level (the built-in mound and
+    ditch filters share it). ``reports``: each form's progress."""
+    level = resolve(forms[0]).level
+    grow = (REACH_TILES + NEAR_MARGIN) * level
+    groups = list(line_batches(shapely.bounds(_geoms(lines)), level=level, grow=grow))
+    jobs = [_Near(version, forms, clipped(box, bbox), _geoms(lines, idx), grow) for idx, box in groups]
     out = []
     for done, ((idx, _), found) in enumerate(
         zip(groups, on_database(_forms_in, db, jobs, workers=workers, preload=__name__)), start=1
     ):
-        out.append((idx, found))
-        report("batches", done, len(jobs))
+        out.append((idx, dict(zip(forms, found))))
+        for report in reports:
+            or_silent(report)("batches", done, len(jobs))
     return out
 
 
-def _forms_in(db: Database, job: _Near) -> list[Match]:
-    """The matches of ``job.form`` whose tiles lie within ``job.near`` of its lines."""
-    flt = resolve(job.form)
-    lv, near = flt.level, (job.lines, job.near)
-    return _find_at_once(db, job.version, flt, level=lv, bbox=job.box, grow=_reach(lv), near=near)
+def _forms_in(db: Database, job: _Near) -> list[list[Match]]:
+    """The matches of each of ``job.forms`` whose tiles lie within ``job.near`` of its lines."""
+    flts = [resolve(form) for form in job.forms]
+    lv, near = flts[0].level, (job.lines, job.near)
+    return _find_each_at_once(db, job.version, flts, level=lv, bbox=job.box, grow=_reach(lv), near=near)
 
 
 def on_forms(
@@ -282,35 +290,42 @@ def _reach(level: int) -> float:
     return max(SPREAD_READ * REACH_TILES * level, side_of(WIDE * BAND)[1]) + level
 
 
-def _find_at_once(
+def _find_each_at_once(
     db: Database,
     version: str,
-    flt: Filter,
+    flts: list[Filter],
     *,
     level: int,
     bbox: Box | None,
     grow: float,
     near: tuple[list[shapely.Geometry], float] | None = None,
-) -> list[Match]:
-    """The matches of ``bbox`` read at once; with ``near`` (lines, distance), from the candidate
-    tiles whose centres lie that near the lines alone."""
+) -> list[list[Match]]:
+    """Each filter's matches of ``bbox``, its tiles and points read once for all; with ``near``
+    (lines, distance), from the candidate tiles whose centres lie that near the lines alone."""
     xg, yg, code = db.tiles(version, level=level, bbox=bbox)
-    evidence = candidates(xg, yg, code, flt, level)
+    close = np.ones(len(xg), bool)
     if near is not None:
         lines, distance = near
         centres = shapely.points(xg + level / 2, yg + level / 2)
-        close = np.zeros(len(xg), bool)
+        close[:] = False
         close[shapely.STRtree(lines).query(centres, predicate="dwithin", distance=distance)[0]] = True
-        evidence = (evidence[0] & close, evidence[1] & close)
-    if not np.logical_or(*evidence).any():
-        return []
+    evidence = []
+    for flt in flts:
+        own, facing = candidates(xg, yg, code, flt, level)
+        evidence.append((own & close, facing & close))
+    if not any(np.logical_or(*e).any() for e in evidence):
+        return [[] for _ in flts]
     px, py, pz, _ = db.points(
         version,
         level=level,
         bbox=None if bbox is None else (bbox[0] - grow, bbox[1] - grow, bbox[2] + grow, bbox[3] + grow),
         ordered=False,
     )
-    return match_tiles(xg, yg, code, node_lattice(px, py, pz, level), flt, level=level, evidence=evidence)
+    lattice = node_lattice(px, py, pz, level)
+    return [
+        match_tiles(xg, yg, code, lattice, flt, level=level, evidence=e) if np.logical_or(*e).any() else []
+        for flt, e in zip(flts, evidence)
+    ]
 
 
 @dataclass(frozen=True)

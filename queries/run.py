@@ -185,7 +185,8 @@ def _stretches_by_parts(
     out: list[list[Stretch]] = [[] for _ in matches]
     broad = np.zeros(len(matches), bool)
     done = 0
-    for idx, box in line_batches(shapely.bounds(geoms), level=level, grow=side_of(WIDE * BAND)[1] + level):
+    reach = side_of(BAND if flt.max_width is None else WIDE * BAND)[1]  # the wide fits read farther off
+    for idx, box in line_batches(shapely.bounds(geoms), level=level, grow=reach + level):
         nodes = Nodes.of(*db.points(version, level=level, bbox=box, ordered=False)[:3])
         for s in range(0, len(idx), FIT_BATCH):
             report("cross-sections", done, len(matches))
