@@ -313,7 +313,8 @@ def _find_each_at_once(
     for flt in flts:
         own, facing = candidates(xg, yg, code, flt, level)
         evidence.append((own & close, facing & close))
-    if not any(np.logical_or(*e).any() for e in evidence):
+    some = [bool(np.logical_or(*e).any()) for e in evidence]
+    if not any(some):
         return [[] for _ in flts]
     px, py, pz, _ = db.points(
         version,
@@ -323,8 +324,8 @@ def _find_each_at_once(
     )
     lattice = node_lattice(px, py, pz, level)
     return [
-        match_tiles(xg, yg, code, lattice, flt, level=level, evidence=e) if np.logical_or(*e).any() else []
-        for flt, e in zip(flts, evidence)
+        match_tiles(xg, yg, code, lattice, flt, level=level, evidence=e) if any_ else []
+        for flt, e, any_ in zip(flts, evidence, some)
     ]
 
 

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from queries.filters import Filter, Match
 from queries.history import change_history
 from queries.language import Query, parse
-from queries.match import WIDE, broader, find, reads_whole_band, resolve
+from queries.match import WIDE, broader, find, fits_lines, reads_whole_band, resolve
 from queries.object_changes import object_changes
 from queries.parts import line_batches
 from queries.profile import BAND, Nodes, Stretch, side_of, stretches_of
@@ -179,13 +179,15 @@ def _stretches_by_parts(
     """Each match's stretches (:func:`queries.profile.stretches_of`), the matches taken part by
     part (:func:`queries.parts.line_batches`), each part's with the stored points of its box; and
     per match whether it is broader than ``flt.max_width`` (:func:`queries.match.broader`, read
-    where the usual stretches see no feet), which matching reads for some filters only."""
+    where the usual stretches see no feet) for a filter whose matching does not read it
+    (:func:`queries.match.fits_lines`): there every match has passed it already."""
     level = matches[0].level
     geoms = [m.geometry for m in matches]
     out: list[list[Stretch]] = [[] for _ in matches]
     broad = np.zeros(len(matches), bool)
     done = 0
-    reach = side_of(BAND if flt.max_width is None else WIDE * BAND)[1]  # the wide fits read farther off
+    most = None if fits_lines(flt) else flt.max_width
+    reach = side_of(BAND if most is None else WIDE * BAND)[1]  # the wide fits read farther off
     for idx, box in line_batches(shapely.bounds(geoms), level=level, grow=reach + level):
         nodes = Nodes.of(*db.points(version, level=level, bbox=box, ordered=False)[:3])
         for s in range(0, len(idx), FIT_BATCH):
@@ -193,10 +195,10 @@ def _stretches_by_parts(
             batch = idx[s : s + FIT_BATCH]
             for k, own in zip(batch, stretches_of([geoms[k] for k in batch], nodes, measure=flt.measure)):
                 out[k] = own
-            if flt.max_width is not None:
+            if most is not None:
                 whole = [k for k in batch if reads_whole_band(out[k])]
                 wide = stretches_of([geoms[k] for k in whole], nodes, measure=flt.measure, band=WIDE * BAND)
-                broad[whole] = [broader(w, flt.max_width) for w in wide]
+                broad[whole] = [broader(w, most) for w in wide]
             done += len(batch)
     return out, broad
 
