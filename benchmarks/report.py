@@ -10,7 +10,7 @@ from typing import Any
 
 from benchmarks.common import RESULTS, ROOT
 from benchmarks.report_feature_peers import feature_peers_section, spread_cv_section
-from benchmarks.report_objects import crown_base_section, objects_section
+from benchmarks.report_objects import crown_section, objects_section
 from benchmarks.report_roofs import ground_roofs_section
 
 SOHN_SITE = RESULTS / "sohn_speed.json"
@@ -1007,8 +1007,8 @@ def main() -> None:
     spread_cv_section(out, spread, _machine(spread) if spread else "")
     cv = _load("objects_cv")
     objects_section(out, cv, _load("objects_speed"), _machine(cv) if cv else "")
-    crown_base = _load("crown_base_cv")
-    crown_base_section(out, crown_base, _machine(crown_base) if crown_base else "")
+    crowns = _load("crown_cv")
+    crown_section(out, crowns, _machine(crowns) if crowns else "")
     out += [
         "## History",
         "",

@@ -110,38 +110,51 @@ def objects_section(
     out.append("")
 
 
-def crown_base_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> None:
-    """The crown base's leave-one-group-out choice on the crown diameter (crown_base_cv.json)."""
+def crown_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> None:
+    """The crown base and the crowns' crossing, chosen together by leave-one-group-out on the
+    crown diameter (crown_cv.json)."""
     if doc is None:
         return
-    shares = doc["shares"]
+    settings, cases = doc["settings"], doc["cases"]
+    forest = doc.get("forest") or {}
     out += [
-        "## The crown base, chosen on the crown diameter (issue 28)",
+        "## A crown's edges, chosen on the crown diameter (issue 28)",
         "",
-        "`python -m benchmarks.crown_base_cv`: the synthetic scenes of the section above (300 m, 2, 8 and 20 "
-        "pulses/m²), the other tree settings as shipped. A segment's cells lower than the share × its top are "
-        "no part of its crown (`TreeParams.crown_base`; None: every cell). Crown ⌀ RMSE in m per case; a "
-        "share is chosen by leave-one-group-out on the mean over each seed's densities; seeds 11–14 never "
-        f"chose. Chosen on all: {doc['tuned']} (shipped: {doc['default']}); held out per seed: "
-        + ", ".join(f"{g} {h['share']} ({_f(h['diameter_rmse'])} m)" for g, h in doc["held_out"].items())
+        "`python -m benchmarks.crown_cv`: the synthetic scenes of the section above (300 m, 2, 8 and 20 "
+        "pulses/m²), the other tree settings as shipped. *Base*: a segment's cells lower than the share × its "
+        "top are no part of its crown (`TreeParams.crown_base`; None: every cell). *Crossing*: the boundaries "
+        "between crowns of at least that many m² move to where their paraboloids cross "
+        "(`TreeParams.crossing_area`; None: as climbed). Crown ⌀ RMSE in m, the mean over the seeds per "
+        "density; a setting is chosen by leave-one-group-out on the mean over each seed's densities; seeds "
+        f"11–14 never chose. Chosen on all: {doc['tuned']} (shipped: {doc['default']}); held out per seed: "
+        + ", ".join(f"{g} {h['setting']} ({_f(h['diameter_rmse'])} m)" for g, h in doc["held_out"].items())
         + f"; their mean {_f(float(np.mean([h['diameter_rmse'] for h in doc['held_out'].values()])))} m. "
+        "MixedConifer (lidR's `treeID` trees, no setting chosen on it): tree F1 and crown overlap (IoU). "
         f"Machine: {machine}.",
         "",
-        "| case | " + " | ".join(shares) + " |",
-        "|---|" + "---|" * len(shares),
     ]
-    for name, c in doc["cases"].items():
-        out.append(f"| {name} | " + " | ".join(_f(c["shares"][s]["diameter_rmse"]) for s in shares) + " |")
-    for label, seeds in (("seeds 1–4", False), ("seeds 11–14 (never chosen on)", True)):
-        rows = [c for c in doc["cases"].values() if (int(c["group"].split()[1]) > 10) == seeds]
-        means = [np.mean([r["shares"][s]["diameter_rmse"] for r in rows]) for s in shares]
-        out.append(f"| **mean, {label}** | " + " | ".join(_f(float(m)) for m in means) + " |")
-    forest = doc.get("forest")
-    if forest:
-        out += [
-            "",
-            "MixedConifer (no setting chosen on it), tree F1: "
-            + ", ".join(f"{s} {_f(forest[s]['f1'])}" for s in shares)
-            + ".",
-        ]
+    densities = sorted({n.split("@")[1].strip() for n in cases})
+    head = [f"seeds 1–4 @ {d}" for d in densities] + ["seeds 1–4", "seeds 11–14 (never chosen on)"]
+    out += [
+        "| setting | " + " | ".join(head) + " | MixedConifer F1 | overlap |",
+        "|---|" + "---|" * (len(head) + 2),
+    ]
+    for s in settings:
+
+        def mean(held: bool, density: str | None = None, s: str = s) -> float:
+            return float(
+                np.mean(
+                    [
+                        c["settings"][s]["diameter_rmse"]
+                        for n, c in cases.items()
+                        if (int(c["group"].split()[1]) > 10) == held and density in (None, n.split("@")[1].strip())
+                    ]
+                )
+            )
+
+        cells = [_f(mean(False, d)) for d in densities] + [_f(mean(False)), _f(mean(True))]
+        f = forest.get(s)
+        extra = [_f(f["f1"]), _f(f["overlap"])] if f else ["–", "–"]
+        mark = "**" if s == doc["default"] else ""
+        out.append(f"| {mark}{s}{mark} | " + " | ".join(cells + extra) + " |")
     out.append("")

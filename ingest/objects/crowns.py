@@ -28,17 +28,26 @@ class Fits:
     count: NDArray[np.float64]
 
 
-def paraboloids(
-    labels: NDArray[np.intp],
-    xy: tuple[NDArray[np.float64], NDArray[np.float64]],
-    z: NDArray[np.float64],
-    n: int,
-    *,
-    noise: float,
-) -> Fits:
-    """Fit one paraboloid of revolution per label 0 … n−1 to the cells (x, y, z). ``noise`` (m)
-    floors each cell's residual, so a perfect fit of a few cells does not read as infinitely
-    better."""
+@dataclass(frozen=True)
+class Paraboloids:
+    """Least-squares paraboloids of revolution per segment: ``beta`` (n, 4) the coefficients of
+    1, u, v and u² + v² about the segment's mean cell (``centre``, (n, 2)), and its cell count."""
+
+    beta: NDArray[np.float64]
+    centre: NDArray[np.float64]
+    count: NDArray[np.float64]
+
+    def at(self, k: NDArray[np.intp], x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The height of paraboloid ``k`` at (x, y), per point."""
+        u, v = x - self.centre[k, 0], y - self.centre[k, 1]
+        b = self.beta[k]
+        return b[:, 0] + b[:, 1] * u + b[:, 2] * v + b[:, 3] * (u * u + v * v)
+
+
+def fit_paraboloids(
+    labels: NDArray[np.intp], xy: tuple[NDArray[np.float64], NDArray[np.float64]], z: NDArray[np.float64], n: int
+) -> Paraboloids:
+    """Fit one paraboloid of revolution per label 0 … n−1 to the cells (x, y, z)."""
     x, y = xy
     count = np.bincount(labels, minlength=n).astype(float)
     safe = np.maximum(count, 1)
@@ -54,9 +63,24 @@ def paraboloids(
             gram[:, i, j] = gram[:, j, i] = np.bincount(labels, weights=design[:, i] * design[:, j], minlength=n)
     gram += 1e-9 * np.eye(PARAMETERS)
     beta = np.linalg.solve(gram, rhs[..., None])[..., 0]
-    resid = z - np.einsum("ij,ij->i", design, beta[labels])
+    return Paraboloids(np.asarray(beta, np.float64), np.stack([xm, ym], axis=1).astype(np.float64), count)
+
+
+def paraboloids(
+    labels: NDArray[np.intp],
+    xy: tuple[NDArray[np.float64], NDArray[np.float64]],
+    z: NDArray[np.float64],
+    n: int,
+    *,
+    noise: float,
+) -> Fits:
+    """Fit one paraboloid of revolution per label 0 … n−1 to the cells (x, y, z). ``noise`` (m)
+    floors each cell's residual, so a perfect fit of a few cells does not read as infinitely
+    better."""
+    fits = fit_paraboloids(labels, xy, z, n)
+    resid = z - fits.at(labels, *xy)
     rss = np.bincount(labels, weights=resid**2, minlength=n)
-    return Fits(np.maximum(rss, count * noise**2), count)
+    return Fits(np.maximum(rss, fits.count * noise**2), fits.count)
 
 
 def choose_scales(

@@ -5,7 +5,8 @@ The canopy model is the highest vegetation return per cell with the penetrations
 by the active contour of the ground filter applied from above: returns deeper than
 ``penetration`` under the crown surface do not attract the net. It is smoothed at three
 scales; on each, every vegetation cell climbs to its local maximum (:mod:`climb`), and
-the scales are combined crown by crown by paraboloid fits (:mod:`crowns`). Each segment is
+the scales are combined crown by crown by paraboloid fits (:mod:`crowns`), whose crossings then
+place the boundaries between crowns (:mod:`crown_envelope`). Each segment is
 a tree: its highest return gives the position, and the height less the shortfall of a
 crown's highest return below its top (:mod:`apex`, measured on the survey), its area or its free
 edge the crown diameter (:mod:`crown_size`).
@@ -24,6 +25,7 @@ from ingest.ground.grids import Grid
 from ingest.objects.apex import crown_shortfalls
 from ingest.objects.climb import climb
 from ingest.objects.cover import Cover, cell_size
+from ingest.objects.crown_envelope import crossed_boundaries
 from ingest.objects.crown_size import crown_diameters, under_base
 from ingest.objects.crowns import choose_scales
 from ingest.objects.heights import TopRaster
@@ -50,7 +52,9 @@ class TreeParams:
     ``noise`` (m): the canopy model's noise, the floor of the paraboloids' residuals.
     ``min_crown_area`` (m²): a smaller segment is not a tree. ``crown_base``: a crown's cells lie
     above this share of its top's height; lower cells of its segment are a lower crown's edge that
-    it captured (:func:`ingest.objects.crown_size.under_base`; None: every cell). The scales, the
+    it captured (:func:`ingest.objects.crown_size.under_base`; None: every cell).
+    ``crossing_area`` (m²): crowns at least this large move their boundaries to where their
+    paraboloids cross (:mod:`ingest.objects.crown_envelope`; None: the boundaries as climbed). The scales, the
     noise and the hole width were chosen by leave-one-group-out cross-validation
     (``benchmarks/objects_cv.py``), the crown base the same way on the crown diameter
     (``benchmarks/crown_base_cv.py``).
@@ -64,6 +68,7 @@ class TreeParams:
     min_crown_area: float = 2.0
     hole_spacings: float | None = 4.0
     crown_base: float | None = 0.35
+    crossing_area: float | None = 8.0
 
 
 def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = None) -> list[Tree]:
@@ -88,6 +93,8 @@ def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = N
     scales = [climb(smoothed(canopy, mask, s / grid.cell), mask) for s in sorted(p.scales, reverse=True)]
     min_cells = max(1, int(np.ceil(p.min_crown_area / grid.cell**2)))
     labels = choose_scales(scales, canopy, grid.cell, noise=p.noise, min_cells=min_cells)
+    if p.crossing_area is not None:
+        labels = crossed_boundaries(labels, canopy, grid.cell, min_area=p.crossing_area)
     crown = np.where(tall[near], labels.ravel()[top.cells_of(xyz[:, :2])], -1)
     shortfall = crown_shortfalls(crown, cover.height[near], xyz[:, :2], n=int(labels.max()) + 1)
     return _measure(labels, under_base(labels, canopy, p.crown_base), top, xyz, min_cells, shortfall)

@@ -1,0 +1,92 @@
+"""Crown boundaries moved to where the crowns' surfaces cross.
+
+Seen from above, the canopy is the upper envelope of its crowns: where two crowns meet, each
+cell shows the one that stands higher there. The climb of :mod:`climb` on a smoothed canopy
+draws the line between a tall crown and a lower one beside it too far into the lower one,
+since smoothing spreads the tall crown's flank outwards; the tall crown's diameter then grows
+by what the low one loses. Here each crown's shape is a paraboloid of revolution fitted to its
+cells (:mod:`crowns`), and a cell at a boundary passes to the neighbouring crown whose
+paraboloid stands higher there than its own crown's and explains its height better. The
+paraboloids are fitted again and the boundaries moved until none moves.
+
+Only crowns of at least ``min_area`` take part, on either side: a smaller segment's paraboloid
+is fitted to too few cells to say where its surface runs beyond them. A crown keeps its
+highest cell and gains none higher, so no tree's position or height changes, only its outline
+and diameter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ingest.objects.crowns import fit_paraboloids
+
+MAX_STEPS = 100  # each step moves a boundary by one cell at most; the moves stop long before
+NEIGHBOURS = ((-1, 0), (1, 0), (0, -1), (0, 1))
+
+
+def crossed_boundaries(
+    labels: NDArray[np.intp], canopy: NDArray[np.float64], cell: float, *, min_area: float
+) -> NDArray[np.intp]:
+    """``labels`` (segments 0 … n − 1 of the canopy, −1 elsewhere) with the boundaries between
+    crowns of at least ``min_area`` m² moved to where their paraboloids cross.
+
+    Parameters
+    ----------
+    labels : the crown segments of a grid of ``cell`` m.
+    canopy : the crown surface's heights on the same grid.
+    cell : the grid's cell (m).
+    min_area : the least crown area (m²) whose paraboloid moves a boundary.
+    """
+    out = np.array(labels, np.intp, copy=True)
+    rows, cols = np.nonzero((out >= 0) & np.isfinite(canopy))
+    if len(rows) == 0:
+        return out
+    n = int(out.max()) + 1
+    x, y = ((cols + 0.5) * cell).astype(np.float64), ((rows + 0.5) * cell).astype(np.float64)
+    z = np.asarray(canopy[rows, cols], np.float64)
+    lab = out[rows, cols]
+    order = np.lexsort((z, lab))
+    tops = order[np.r_[lab[order][1:] != lab[order][:-1], True]]
+    apex = np.full(n, -np.inf)
+    apex[lab[tops]] = z[tops]
+    for _ in range(MAX_STEPS):
+        moved = _crossing(out, lab, (rows, cols), (x, y, z), apex, min_cells=min_area / cell**2)
+        moved[tops] = lab[tops]
+        if np.array_equal(moved, lab):
+            break
+        lab = moved
+        out[rows, cols] = lab
+    return out
+
+
+def _crossing(
+    labels: NDArray[np.intp],
+    lab: NDArray[np.intp],
+    at: tuple[NDArray[np.intp], NDArray[np.intp]],
+    xyz: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    apex: NDArray[np.float64],
+    *,
+    min_cells: float,
+) -> NDArray[np.intp]:
+    """One step: each crown cell's segment after the moves across its 4-neighbour boundaries;
+    a cell joins no crown whose top (``apex``, per segment) it stands above."""
+    rows, cols = at
+    x, y, z = xyz
+    fits = fit_paraboloids(lab, (x, y), z, len(apex))
+    # a paraboloid opening upwards is no crown's, and one of a few cells no shape beyond them
+    shaped = (fits.beta[:, 3] < 0) & (fits.count >= max(min_cells, 1.0))
+    own = fits.at(lab, x, y)
+    best, best_error = lab.copy(), np.abs(own - z)
+    pad = np.pad(labels, 1, constant_values=-1)
+    for dr, dc in NEIGHBOURS:
+        other = pad[rows + 1 + dr, cols + 1 + dc]
+        k = np.maximum(other, 0)
+        there = fits.at(k, x, y)
+        error = np.abs(there - z)
+        better = (other >= 0) & (other != lab) & shaped[k] & shaped[lab] & (z <= apex[k])
+        better &= (there > own) & (error < best_error)
+        best = np.where(better, other, best)
+        best_error = np.where(better, error, best_error)
+    return best
