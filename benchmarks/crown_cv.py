@@ -37,7 +37,7 @@ from benchmarks.objects_score import score_trees
 from ingest.objects import TreeParams
 from tdb.workers import available_cores
 
-SHARES: tuple[float | None, ...] = (None, 0.3, 0.35, 0.4)
+SHARES: tuple[float | None, ...] = (None, 0.3, 0.35, 0.4, 0.45, 0.5)
 AREAS: tuple[float | None, ...] = (None, 4.0, 8.0, 16.0)  # m²
 SETTINGS = [{"crown_base": s, "crossing_area": a} for s, a in itertools.product(SHARES, AREAS)]
 

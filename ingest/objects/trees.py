@@ -54,10 +54,10 @@ class TreeParams:
     above this share of its top's height; lower cells of its segment are a lower crown's edge that
     it captured (:func:`ingest.objects.crown_size.under_base`; None: every cell).
     ``crossing_area`` (m²): crowns at least this large move their boundaries to where their
-    paraboloids cross (:mod:`ingest.objects.crown_envelope`; None: the boundaries as climbed). The scales, the
-    noise and the hole width were chosen by leave-one-group-out cross-validation
-    (``benchmarks/objects_cv.py``), the crown base the same way on the crown diameter
-    (``benchmarks/crown_base_cv.py``).
+    paraboloids cross (:mod:`ingest.objects.crown_envelope`; None: the boundaries as climbed).
+    The scales, the noise and the hole width were chosen by leave-one-group-out cross-validation
+    (``benchmarks/objects_cv.py``), the crown base and the crossing's area the same way on the
+    crown diameter (``benchmarks/crown_cv.py``).
     """
 
     scales: tuple[float, ...] = (0.35, 0.7, 1.4)
