@@ -67,7 +67,7 @@ class TreeParams:
     noise: float = 0.4
     min_crown_area: float = 2.0
     hole_spacings: float | None = 4.0
-    crown_base: float | None = 0.35
+    crown_base: float | None = 0.4
     crossing_area: float | None = 8.0
 
 
