@@ -39,6 +39,17 @@ def test_bands_of_rows_join_without_a_seam(monkeypatch):
     assert median_filter(raster, 5).dtype == np.float32
 
 
+@pytest.mark.parametrize("band", [1, 2, 5, 64])
+def test_the_network_of_nine_joins_its_bands_without_a_seam(monkeypatch, band):
+    """The 3 × 3 median's sorting network, worked a few rows at a time, reads as scipy's."""
+    raster = np.random.default_rng(4).normal(size=(57, 31)).astype(np.float32)
+    monkeypatch.setattr(median, "BAND_ROWS", band)
+    for mode in ("constant", "nearest"):
+        got = median_filter(raster, 3, mode=mode)
+        np.testing.assert_array_equal(got, ndimage.median_filter(raster, size=3, mode=mode))
+        assert got.dtype == np.float32
+
+
 @pytest.mark.parametrize("size", [0, 2, -3])
 def test_an_even_or_empty_window_is_refused(size):
     with pytest.raises(InputError, match="odd window"):
