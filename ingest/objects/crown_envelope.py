@@ -77,16 +77,25 @@ def _crossing(
     fits = fit_paraboloids(lab, (x, y), z, len(apex))
     # a paraboloid opening upwards is no crown's, and one of a few cells no shape beyond them
     shaped = (fits.beta[:, 3] < 0) & (fits.count >= max(min_cells, 1.0))
-    own = fits.at(lab, x, y)
-    best, best_error = lab.copy(), np.abs(own - z)
     pad = np.pad(labels, 1, constant_values=-1)
-    for dr, dc in NEIGHBOURS:
-        other = pad[rows + 1 + dr, cols + 1 + dc]
+    others = [pad[rows + 1 + dr, cols + 1 + dc] for dr, dc in NEIGHBOURS]
+    # only a cell with a shaped crown's neighbour of another shaped crown can move
+    edge = shaped[lab] & np.logical_or.reduce([(o >= 0) & (o != lab) & shaped[np.maximum(o, 0)] for o in others])
+    at_edge = np.flatnonzero(edge)
+    best = lab.copy()
+    if len(at_edge) == 0:
+        return best
+    mine, xe, ye, ze = lab[at_edge], x[at_edge], y[at_edge], z[at_edge]
+    own = fits.at(mine, xe, ye)
+    choice, best_error = mine.copy(), np.abs(own - ze)
+    for o in others:
+        other = o[at_edge]
         k = np.maximum(other, 0)
-        there = fits.at(k, x, y)
-        error = np.abs(there - z)
-        better = (other >= 0) & (other != lab) & shaped[k] & shaped[lab] & (z <= apex[k])
+        there = fits.at(k, xe, ye)
+        error = np.abs(there - ze)
+        better = (other >= 0) & (other != mine) & shaped[k] & (ze <= apex[k])
         better &= (there > own) & (error < best_error)
-        best = np.where(better, other, best)
+        choice = np.where(better, other, choice)
         best_error = np.where(better, error, best_error)
+    best[at_edge] = choice
     return best
