@@ -55,15 +55,24 @@ class Raster:
         fc = self._snap((np.asarray(x, float) - self.x0) / self.cell - 0.5)
         fr = self._snap((self.y1 - np.asarray(y, float)) / self.cell - 0.5)
         rows, cols = self.shape
-        c0, r0 = np.floor(fc).astype(np.intp), np.floor(fr).astype(np.intp)
+        # The cell's lower corner is held one post inside the last row and column, so that its
+        # other corners are posts too: a point on the last post takes it with weight one.
+        with np.errstate(invalid="ignore"):
+            c0 = np.clip(np.floor(fc).astype(np.intp), 0, max(cols - 2, 0))
+            r0 = np.clip(np.floor(fr).astype(np.intp), 0, max(rows - 2, 0))
         tc, tr = fc - c0, fr - r0
-        total = np.zeros(np.shape(fc))
         inside = (fc >= 0) & (fr >= 0) & (fc <= cols - 1) & (fr <= rows - 1)
-        corners = ((0, 0, (1 - tr) * (1 - tc)), (0, 1, (1 - tr) * tc), (1, 0, tr * (1 - tc)), (1, 1, tr * tc))
-        for dr, dc, w in corners:
-            rr, cc = np.clip(r0 + dr, 0, rows - 1), np.clip(c0 + dc, 0, cols - 1)
-            v = self.data[rr, cc]
-            total += np.where(w > 0, w * v, 0.0)
+        flat = r0 * cols + c0
+        right, down = int(cols > 1), cols * int(rows > 1)
+        total = np.zeros(np.shape(fc))
+        corners = (
+            (0, (1 - tr) * (1 - tc)),
+            (right, (1 - tr) * tc),
+            (down, tr * (1 - tc)),
+            (down + right, tr * tc),
+        )
+        for offset, w in corners:
+            total += np.where(w > 0, w * np.take(self.data, flat + offset), 0.0)
         return np.where(inside, total, np.nan)
 
     @staticmethod

@@ -355,3 +355,24 @@ def test_a_survey_without_a_ground_class_cannot_lend_it():
         classify_ground(xyz, method="classified")  # arrays carry no classes
     with pytest.raises(InputError, match="papers' filters"):
         paper_ground(xyz, "classified")
+
+
+@settings(max_examples=40, deadline=None)
+@given(rows=st.integers(1, 12), cols=st.integers(1, 12), seed=st.integers(0, 2**16))
+def test_contour_elasticity_is_the_four_neighbours_arctans(rows, cols, seed):
+    """Each pair's arctan worked once must give the plain sum over the four neighbours, and the
+    net on a mask covering the raster must move as the dense net does."""
+    from ingest.ground.contour import ContourParams, elasticity, relax, relax_on
+
+    rng = np.random.default_rng(seed)
+    net = rng.normal(0, 2, (rows, cols))
+    p = np.pad(net, 1, mode="edge")
+    c = p[1:-1, 1:-1]
+    plain = sum(np.arctan((nb - c) / 0.7) for nb in (p[:-2, 1:-1], p[2:, 1:-1], p[1:-1, :-2], p[1:-1, 2:]))
+    np.testing.assert_allclose(elasticity(net, 0.7), plain, rtol=0, atol=1e-12)
+    target = np.where(rng.random((rows, cols)) < 0.3, np.nan, net + rng.normal(0, 0.5, (rows, cols)))
+    params = ContourParams(max_iterations=20)
+    whole = np.ones((rows, cols), bool)
+    np.testing.assert_allclose(
+        relax_on(target, net, whole, 0.7, 1.0, params), relax(target, net, 0.7, 1.0, params), atol=1e-9
+    )

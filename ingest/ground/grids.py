@@ -12,6 +12,7 @@ from scipy import ndimage
 from tdb.bbox import column_range
 from tdb.errors import InputError
 from tdb.raster import MAX_CELLS
+from tdb.sort import by_group
 
 
 @dataclass(frozen=True)
@@ -100,7 +101,7 @@ class CellSort:
     def of(cls, grid: Grid, xyz: NDArray[np.float64]) -> CellSort:
         row, col = grid.index(xyz[:, :2])
         flat = row * grid.shape[1] + col
-        order = np.lexsort((xyz[:, 2], flat))
+        order = by_group(flat, xyz[:, 2])
         return cls(grid, order, flat[order])
 
     def lowest(self, mask: NDArray[np.bool_] | None = None) -> NDArray[np.intp]:
