@@ -50,7 +50,7 @@ def elasticity(net: NDArray[np.float64], cell: float) -> NDArray[np.float64]:
     down[1:-1] = np.arctan(np.diff(net, axis=0) / cell)
     right = np.zeros((rows, cols + 1))
     right[:, 1:-1] = np.arctan(np.diff(net, axis=1) / cell)
-    return -down[:-1] + down[1:] - right[:, :-1] + right[:, 1:]  # type: ignore[no-any-return]
+    return -down[:-1] + down[1:] - right[:, :-1] + right[:, 1:]
 
 
 def attraction(d: NDArray[np.float64], *, strength: float, reach: float) -> NDArray[np.float64]:
@@ -109,7 +109,7 @@ def relax_on(
     def elastic(v: NDArray[np.float64]) -> NDArray[np.float64]:
         np.arctan((v[after_row] - v) / cell, out=to_row[:n])
         np.arctan((v[after_col] - v) / cell, out=to_col[:n])
-        return -to_row[before_row] + to_row[:n] - to_col[before_col] + to_col[:n]  # type: ignore[no-any-return]
+        return -to_row[before_row] + to_row[:n] - to_col[before_col] + to_col[:n]
 
     out = net.copy()
     out.ravel()[idx] = _phases(target.ravel()[idx], net.ravel()[idx], elastic, reach, p)
