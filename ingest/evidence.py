@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from tdb.evidence import LEVEL, SUPPORT_SPACINGS, TileEvidence
 from tdb.kdtree import plan_tree
@@ -22,7 +23,11 @@ LAYER_TILES = 5  # the least window of a tile's layer: a narrow wall's two lifte
 
 
 def envelope_lift(
-    xyz: NDArray[np.float64], *, at: NDArray[np.intp] | None = None, k: int = NEIGHBOURS
+    xyz: NDArray[np.float64],
+    *,
+    at: NDArray[np.intp] | None = None,
+    k: int = NEIGHBOURS,
+    tree: cKDTree | None = None,
 ) -> NDArray[np.float64]:
     """Per point (of ``at``, default all), how far (m) it stands above the lowest of its ``k``
     nearest neighbours in plan,
@@ -32,12 +37,13 @@ def envelope_lift(
     Ground taken for ground lies on the lower envelope of its neighbourhood, on a slope or a bank
     alike (the quadratic carries its shape); low vegetation taken for the ground, among the ground
     seen through it, stands above it by about its height. Zero at the envelope (a point is one of
-    its own neighbours)."""
+    its own neighbours). ``tree``: :func:`tdb.kdtree.plan_tree` of ``xyz``, where the caller has
+    one."""
     xyz = np.asarray(xyz, float)
     at = np.arange(len(xyz)) if at is None else np.asarray(at, np.intp)
     if len(xyz) < k:
         return np.zeros(len(at))
-    tree = plan_tree(xyz[:, :2])
+    tree = tree if tree is not None else plan_tree(xyz[:, :2])
     out = np.empty(len(at))
     for s in range(0, len(at), CHUNK):
         p = xyz[at[s : s + CHUNK]]
@@ -62,6 +68,7 @@ def tile_evidence(
     spacing: float,
     surface: Raster,
     noise: float = 0.0,
+    tree: cKDTree | None = None,
 ) -> TileEvidence:
     """Evidence of the 2 m tiles ``xg``, ``yg`` from the ground returns ``ground_xyz``, for a
     survey whose pulses lie ``spacing`` m apart with ground ``noise`` (σ, m) and the dense model
@@ -71,16 +78,19 @@ def tile_evidence(
     envelope (:func:`envelope_lift`); a tile without any takes its neighbours' (3 × 3 tiles),
     the gap saying the rest. Its depth is how far the surface stands above its ground returns
     (:func:`tile_depth`), its layer the lift of the tiles around it (:func:`tile_layer`).
+    ``tree``: :func:`tdb.kdtree.plan_tree` of ``ground_xyz``, where the caller has one.
     """
     xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
     if len(xg) == 0:
         return TileEvidence.empty()
     g = np.asarray(ground_xyz, float)
-    lift = _tile_lift(g, xg, yg)
+    if tree is None and len(g):
+        tree = plan_tree(g[:, :2])
+    lift = _tile_lift(g, xg, yg, tree=tree)
     depth = tile_depth(g, surface, xg, yg)
     layer = tile_layer(lift, xg, yg, floor=noise_lift(spacing, noise), window=layer_window(spacing))
     radius = SUPPORT_SPACINGS * spacing
-    beyond = _node_gaps(g, xg, yg, radius)
+    beyond = _node_gaps(g, xg, yg, radius, tree=tree)
     support = (beyond == 0).mean(axis=1)
     gap = beyond.mean(axis=1)
     return TileEvidence(xg, yg, *(a.astype(np.float32) for a in (lift, gap, depth, layer, support)))
@@ -219,7 +229,9 @@ def _highest(cell: NDArray[np.int64], z: NDArray[np.float64]) -> NDArray[np.intp
     return first[first < len(cell)]
 
 
-def _tile_lift(g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64]) -> NDArray[np.float64]:
+def _tile_lift(
+    g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64], *, tree: cKDTree | None = None
+) -> NDArray[np.float64]:
     """Envelope lift (m) of each tile's highest ground return, or the mean of its neighbours'
     (3 × 3 tiles) where it has none, or 0. The highest return is the one vegetation lifts most;
     one per tile bounds the cost whatever the density."""
@@ -229,7 +241,7 @@ def _tile_lift(g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int
         cell = grid.cells(g[:, 0], g[:, 1])
         inside = np.flatnonzero(cell >= 0)
         top = inside[_highest(cell[inside], g[inside, 2])]
-        total[cell[top]] = envelope_lift(g, at=top)
+        total[cell[top]] = envelope_lift(g, at=top, tree=tree)
         count[cell[top]] = 1.0
     total, count = total.reshape(grid.shape), count.reshape(grid.shape)
     at = np.unravel_index(grid.cells_of_tiles(xg, yg), grid.shape)
@@ -241,7 +253,12 @@ def _tile_lift(g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int
 
 
 def _node_gaps(
-    g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64], radius: float
+    g: NDArray[np.float64],
+    xg: NDArray[np.int64],
+    yg: NDArray[np.int64],
+    radius: float,
+    *,
+    tree: cKDTree | None = None,
 ) -> NDArray[np.float64]:
     """(tiles, 9): how far (m) each tile's 3 × 3 nodes lie beyond ``radius`` from the nearest
     ground return (0 within it). Beyond a few hundred metres it is capped: the gap term is then
@@ -266,7 +283,7 @@ def _node_gaps(
     beyond = np.zeros(touched.shape)
     if len(nj):
         nodes = np.column_stack([x0 + ni * float(step), y0 + nj * float(step)])
-        d, _ = plan_tree(g[:, :2]).query(nodes, k=1, distance_upper_bound=cap)
+        d, _ = (tree if tree is not None else plan_tree(g[:, :2])).query(nodes, k=1, distance_upper_bound=cap)
         beyond[nj, ni] = np.maximum(np.minimum(d, cap) - radius, 0.0)
     return beyond[rows, cols]
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from tdb.bbox import points_in_box
 from tdb.kdtree import plan_tree
@@ -40,15 +41,17 @@ def ground_noises(
     k: int = 10,
     sample: int = 20_000,
     seed: int = 0,
+    tree: cKDTree | None = None,
 ) -> tuple[float, ...]:
     """The spread of :func:`ground_noise` at each of ``quantiles`` (percent) of the neighbourhoods,
     from one sample of them: 50 is the ground noise; a low one (:data:`QUIET`) is the spread of the
-    quietest neighbourhoods, bare ground's, where vegetation taken for ground widens the median's."""
+    quietest neighbourhoods, bare ground's, where vegetation taken for ground widens the median's.
+    ``tree``: :func:`tdb.kdtree.plan_tree` of ``ground_xyz``, where the caller has one."""
     xyz = np.asarray(ground_xyz, float)
     if len(xyz) <= k:
         return tuple(0.0 for _ in quantiles)
     pick = _sample(xyz, sample, seed)
-    _, nb = plan_tree(xyz[:, :2]).query(xyz[pick, :2], k=k)
+    _, nb = (tree if tree is not None else plan_tree(xyz[:, :2])).query(xyz[pick, :2], k=k)
     pts = xyz[nb]
     centred = pts - pts.mean(axis=1, keepdims=True)
     cov = centred.transpose(0, 2, 1) @ centred / (k - 3)

@@ -26,6 +26,7 @@ from tdb.cloud import PointCloud
 from tdb.database import Database, Version, VersionInfo, check_version_name
 from tdb.errors import InputError, Remedy, VersionExistsError
 from tdb.evidence import TileEvidence
+from tdb.kdtree import plan_tree
 from tdb.options import GroundMethod, LabelScheme, parse
 from tdb.progress import Progress, or_silent
 from tdb.raster import Raster
@@ -135,7 +136,9 @@ def survey(
     report("dense model", 0, 1)
     gxyz = metric.xyz[ground]
     dtm = dense_model(gxyz, resolution=o.resolution, crs=metric.crs)
-    noise, quiet = ground_noises(gxyz, (50.0, QUIET))
+    # one k-d tree of the ground returns for the noise and the evidence
+    tree = plan_tree(gxyz[:, :2]) if len(gxyz) else None
+    noise, quiet = ground_noises(gxyz, (50.0, QUIET), tree=tree)
     threshold = o.flat_threshold
     if threshold is None:
         seen = metric.xyz[~excluded(metric.classification, o.exclude)]
@@ -144,7 +147,7 @@ def survey(
     model = build(dtm, flat_threshold=threshold, n=SUBGRID, measure=measure)
     finest = model.levels[min(model.levels)]
     spacing = quantised(point_spacing(metric.xyz[:, :2]))
-    evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm, noise=quiet)
+    evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm, noise=quiet, tree=tree)
     objects = (
         find_objects(metric, ground, dtm, progress=report, skip=excluded(metric.classification, o.exclude))
         if o.objects
