@@ -56,6 +56,16 @@ def machine() -> dict[str, Any]:
     }
 
 
+def machine_line(doc: dict[str, Any]) -> str:
+    """A results file's machine, date and commit, as docs/benchmarks.md states them."""
+    m = doc.get("machine", {})
+    cores = f" ({m['cores']} cores, {m['logical_cpus']} logical CPUs)" if m.get("cores") else ""
+    return (
+        f"{m.get('cpu', '?')}{cores}, Python {m.get('python', '?')}, {m.get('date', '?')}, "
+        f"commit {m.get('commit', '?')}"
+    )
+
+
 def file_run_args(description: str | None) -> Any:
     """``--file`` (under ``../shared/data``) and ``--block`` of a blocked-ingest benchmark, and the
     hidden ``--run`` (five words) by which it starts each run in a child (:func:`run_child`)."""

@@ -9,6 +9,7 @@ import json
 from typing import Any
 
 from benchmarks.common import RESULTS, ROOT
+from benchmarks.common import machine_line as _machine
 from benchmarks.report_feature_peers import feature_peers_section, spread_cv_section
 from benchmarks.report_objects import crown_section, objects_section
 from benchmarks.report_roofs import ground_roofs_section
@@ -19,15 +20,6 @@ SOHN_SITE = RESULTS / "sohn_speed.json"
 def _load(name: str) -> dict[str, Any] | None:
     path = RESULTS / f"{name}.json"
     return json.loads(path.read_text()) if path.exists() else None
-
-
-def _machine(doc: dict[str, Any]) -> str:
-    m = doc.get("machine", {})
-    cores = f" ({m['cores']} cores, {m['logical_cpus']} logical CPUs)" if m.get("cores") else ""
-    return (
-        f"{m.get('cpu', '?')}{cores}, Python {m.get('python', '?')}, {m.get('date', '?')}, "
-        f"commit {m.get('commit', '?')}"
-    )
 
 
 def ground_section(out: list[str]) -> None:

@@ -6,6 +6,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.common import machine_line
 from benchmarks.crown_cv import name as crown_setting_name
 from ingest.objects import TreeParams
 
@@ -108,7 +109,8 @@ def objects_section(
                 if isinstance(v, dict) and "points_per_s" in v and k != "scene"
             )
             + f". `tdb ingest` of the scene: {i['with_objects']:.1f} s with the objects, "
-            f"{i['without_objects']:.1f} s without (**{i['slowdown_pct']:+.1f} %**).",
+            f"{i['without_objects']:.1f} s without (**{i['slowdown_pct']:+.1f} %**). "
+            f"Machine: {machine_line(speed)}.",
         ]
     out.append("")
 
