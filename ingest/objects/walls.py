@@ -122,9 +122,19 @@ def _stretches(uv: NDArray[np.float64], resolution: float) -> list[_Stretch]:
     mid = (uv[1:] + uv[:-1]) / 2
     length = np.hypot(*np.diff(uv, axis=0).T)
     spans = [np.arange(a, b) for a, b in itertools.pairwise(key)]
+    # A span is a run of the ring's edges, known by its first edge and its length; each join
+    # makes one new span, so each span's kind and offset are worked out once.
+    known: dict[tuple[int, int], tuple[int, float]] = {}
+
+    def kind_offset(span: NDArray[np.intp]) -> tuple[int, float]:
+        tag = (int(span[0]), len(span))
+        if tag not in known:
+            kind = _kind(mid[span], length[span], resolution)
+            known[tag] = (kind, _offset(mid, length, span, kind))
+        return known[tag]
+
     while len(spans) > 3:
-        kinds = [_kind(mid[i], length[i], resolution) for i in spans]
-        offsets = [_offset(mid, length, i, k) for i, k in zip(spans, kinds, strict=True)]
+        kinds, offsets = (list(a) for a in zip(*(kind_offset(i) for i in spans), strict=True))
         n = len(spans)
         same = [
             kinds[k] == kinds[(k + 1) % n] != FREE and abs(offsets[k] - offsets[(k + 1) % n]) < resolution
@@ -146,9 +156,9 @@ def _stretches(uv: NDArray[np.float64], resolution: float) -> list[_Stretch]:
             _join(spans, before if first else k, k if first else after)
     out = []
     for span in spans:
-        kind = _kind(mid[span], length[span], resolution)
+        kind, offset = kind_offset(span)
         point, direction = _line(uv[np.union1d(span, span + 1)])
-        out.append(_Stretch(kind, _offset(mid, length, span, kind), point, direction, uv[span[0]]))
+        out.append(_Stretch(kind, offset, point, direction, uv[span[0]]))
     return out
 
 
