@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ingest.objects.crowns import fit_paraboloids
+from ingest.objects.crowns import Paraboloids, fit_paraboloids
 
 MAX_STEPS = 100  # each step moves a boundary by one cell at most; the moves stop long before
 NEIGHBOURS = ((-1, 0), (1, 0), (0, -1), (0, 1))
@@ -51,34 +51,65 @@ def crossed_boundaries(
     tops = order[np.r_[lab[order][1:] != lab[order][:-1], True]]
     apex = np.full(n, -np.inf)
     apex[lab[tops]] = z[tops]
+    others = _neighbours(out, rows, cols)
+    fits = fit_paraboloids(lab, (x, y), z, n)
     for _ in range(MAX_STEPS):
-        moved = _crossing(out, lab, (rows, cols), (x, y, z), apex, min_cells=min_area / cell**2)
+        moved = _crossing(lab, others, (x, y, z), fits, apex, min_cells=min_area / cell**2)
         moved[tops] = lab[tops]
         if np.array_equal(moved, lab):
             break
+        changed = np.unique(np.r_[lab[moved != lab], moved[moved != lab]])
         lab = moved
-        out[rows, cols] = lab
+        fits = _refitted(fits, changed, lab, (x, y), z)
+    out[rows, cols] = lab
     return out
 
 
-def _crossing(
-    labels: NDArray[np.intp],
+def _neighbours(
+    labels: NDArray[np.intp], rows: NDArray[np.intp], cols: NDArray[np.intp]
+) -> list[tuple[NDArray[np.intp], NDArray[np.intp]]]:
+    """Per 4-neighbour of each moving cell (``rows``, ``cols``): where it is a moving cell, its
+    place among them (−1 otherwise), and else its label, which never changes."""
+    place = np.full(labels.shape, -1, np.intp)
+    place[rows, cols] = np.arange(len(rows))
+    pad_place = np.pad(place, 1, constant_values=-1)
+    pad = np.pad(labels, 1, constant_values=-1)
+    return [(pad_place[rows + 1 + dr, cols + 1 + dc], pad[rows + 1 + dr, cols + 1 + dc]) for dr, dc in NEIGHBOURS]
+
+
+def _refitted(
+    fits: Paraboloids,
+    changed: NDArray[np.intp],
     lab: NDArray[np.intp],
-    at: tuple[NDArray[np.intp], NDArray[np.intp]],
+    xy: tuple[NDArray[np.float64], NDArray[np.float64]],
+    z: NDArray[np.float64],
+) -> Paraboloids:
+    """``fits`` with the paraboloids of the segments ``changed`` fitted again. A segment's sums
+    run over its own cells in their order, so a refit of some segments gives each the bits a fit
+    of all gives it."""
+    mine = np.flatnonzero(np.isin(lab, changed))
+    new = fit_paraboloids(lab[mine], (xy[0][mine], xy[1][mine]), z[mine], len(fits.count))
+    beta, centre, count = fits.beta.copy(), fits.centre.copy(), fits.count.copy()
+    beta[changed], centre[changed], count[changed] = new.beta[changed], new.centre[changed], new.count[changed]
+    return Paraboloids(beta, centre, count)
+
+
+def _crossing(
+    lab: NDArray[np.intp],
+    neighbours: list[tuple[NDArray[np.intp], NDArray[np.intp]]],
     xyz: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    fits: Paraboloids,
     apex: NDArray[np.float64],
     *,
     min_cells: float,
 ) -> NDArray[np.intp]:
-    """One step: each crown cell's segment after the moves across its 4-neighbour boundaries;
-    a cell joins no crown whose top (``apex``, per segment) it stands above."""
-    rows, cols = at
+    """One step: each crown cell's segment after the moves across its 4-neighbour boundaries
+    (``neighbours``: :func:`_neighbours`), the segments' paraboloids ``fits``; a cell joins no
+    crown whose top (``apex``, per segment) it stands above."""
     x, y, z = xyz
-    fits = fit_paraboloids(lab, (x, y), z, len(apex))
     # a paraboloid opening upwards is no crown's, and one of a few cells no shape beyond them
     shaped = (fits.beta[:, 3] < 0) & (fits.count >= max(min_cells, 1.0))
-    pad = np.pad(labels, 1, constant_values=-1)
-    others = [pad[rows + 1 + dr, cols + 1 + dc] for dr, dc in NEIGHBOURS]
+    others = [np.where(place >= 0, lab[place], fixed) for place, fixed in neighbours]
     # only a cell with a shaped crown's neighbour of another shaped crown can move
     edge = shaped[lab] & np.logical_or.reduce([(o >= 0) & (o != lab) & shaped[np.maximum(o, 0)] for o in others])
     at_edge = np.flatnonzero(edge)
