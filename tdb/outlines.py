@@ -18,24 +18,22 @@ def outlines(labels: NDArray[np.integer], *, x0: float, y0: float, cell: float) 
     transform = Affine(cell, 0.0, x0, 0.0, -cell, y0 + rows * cell)
     north_up = labels[::-1].astype(np.int32)
     values: list[int] = []
-    shells: list[NDArray[np.float64]] = []
-    holed: dict[int, list[Any]] = {}
+    rings: list[NDArray[np.float64]] = []
+    polygon_of: list[int] = []  # per ring, its polygon; a polygon's first ring is its shell
     # 4-connected outlines are valid rings; cells meeting at a corner become parts of one
     # multipolygon (a ring through its own corner is not valid in GIS)
     for geom, value in rasterio.features.shapes(north_up, mask=north_up >= 0, connectivity=4, transform=transform):
-        rings = geom["coordinates"]
-        if len(rings) == 1:  # most: built below all at once, not one by one
-            values.append(int(value))
-            shells.append(np.asarray(rings[0], float))
-        else:
-            holed.setdefault(int(value), []).append(shapely.geometry.shape(geom))
+        for ring in geom["coordinates"]:
+            rings.append(np.asarray(ring, float))
+            polygon_of.append(len(values))
+        values.append(int(value))
     parts: dict[int, list[Any]] = {}
-    if shells:
-        ring_of = np.repeat(np.arange(len(shells)), [len(s) for s in shells])
-        polygons = shapely.polygons(shapely.linearrings(np.concatenate(shells), indices=ring_of))
+    if rings:
+        # built all at once: one shapely call per polygon costs more than the polygoniser
+        ring_of = np.repeat(np.arange(len(rings)), [len(r) for r in rings])
+        closed = shapely.linearrings(np.concatenate(rings), indices=ring_of)
+        polygons = shapely.polygons(closed, indices=np.asarray(polygon_of))
         for value, polygon in zip(values, polygons, strict=True):
             parts.setdefault(value, []).append(polygon)
-    for value, polys in holed.items():
-        parts.setdefault(value, []).extend(polys)
     # the parts of a label are disjoint (4-connected), touching at corners at most: no union needed
     return {k: v[0] if len(v) == 1 else shapely.multipolygons(v) for k, v in parts.items()}
