@@ -72,9 +72,13 @@ def _neighbours(
     place among them (−1 otherwise), and else its label, which never changes."""
     place = np.full(labels.shape, -1, np.intp)
     place[rows, cols] = np.arange(len(rows))
-    pad_place = np.pad(place, 1, constant_values=-1)
-    pad = np.pad(labels, 1, constant_values=-1)
-    return [(pad_place[rows + 1 + dr, cols + 1 + dc], pad[rows + 1 + dr, cols + 1 + dc]) for dr, dc in NEIGHBOURS]
+    out = []
+    for dr, dc in NEIGHBOURS:
+        r, c = rows + dr, cols + dc
+        inside = (r >= 0) & (r < labels.shape[0]) & (c >= 0) & (c < labels.shape[1])
+        r, c = np.where(inside, r, 0), np.where(inside, c, 0)
+        out.append((np.where(inside, place[r, c], -1), np.where(inside, labels[r, c], -1)))
+    return out
 
 
 def _refitted(
