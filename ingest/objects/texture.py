@@ -18,27 +18,29 @@ from tdb.median import median_filter
 _LINES = (((0, 1), 1.0), ((1, 0), 1.0), ((1, 1), np.sqrt(2)), ((1, -1), np.sqrt(2)))
 
 
-def _shifted(z: NDArray[np.float64], dr: int, dc: int) -> NDArray[np.float64]:
-    p = np.pad(z, 1, mode="edge")
-    rows, cols = z.shape
+def _shifted(p: NDArray[np.float64], dr: int, dc: int) -> NDArray[np.float64]:
+    """Each cell's neighbour at (dr, dc), read from ``p``, the raster padded by its edge cells."""
+    rows, cols = p.shape[0] - 2, p.shape[1] - 2
     return p[1 + dr : 1 + dr + rows, 1 + dc : 1 + dc + cols]
 
 
 def second_derivative(z: NDArray[np.float64]) -> NDArray[np.float64]:
     """Largest |z(−) − 2 z + z(+)| / 2 over the four lines through each cell (m)."""
+    p = np.pad(z, 1, mode="edge")
     out = np.zeros(z.shape)
     for (dr, dc), _ in _LINES:
-        d2 = np.abs(_shifted(z, dr, dc) + _shifted(z, -dr, -dc) - 2 * z) / 2
+        d2 = np.abs(_shifted(p, dr, dc) + _shifted(p, -dr, -dc) - 2 * z) / 2
         np.maximum(out, d2, out=out)
     return out
 
 
 def max_slope(z: NDArray[np.float64], cell: float) -> NDArray[np.float64]:
     """Largest |dz| / distance to any of the eight neighbours (rise over run)."""
+    p = np.pad(z, 1, mode="edge")
     out = np.zeros(z.shape)
     for (dr, dc), steps in _LINES:
         for sign in (1, -1):
-            s = np.abs(_shifted(z, sign * dr, sign * dc) - z) / (steps * cell)
+            s = np.abs(_shifted(p, sign * dr, sign * dc) - z) / (steps * cell)
             np.maximum(out, s, out=out)
     return out
 
