@@ -3,8 +3,8 @@
 On a synthetic scene (500 m, 10 pulses/m², seed 1) and the real files: the points per second
 of :func:`ingest.objects.find_objects` (the ground model given, as ``tdb classify`` and
 ``tdb trees`` run it after the ground filter), and the time of a whole ``tdb ingest`` with the
-objects and without (``IngestOptions(objects=False)``, ``--no-objects``). Medians of three, in
-the plain environment.
+objects and without (``IngestOptions(objects=False)``, ``--no-objects``), run in turns. Medians
+of three, in the plain environment.
 
     python -m benchmarks.objects_speed
 """
@@ -51,17 +51,18 @@ def objects_rate(cloud: PointCloud) -> dict[str, float]:
 
 
 def ingest_times(cloud: PointCloud) -> dict[str, float]:
-    out = {}
-    for label, objects in (("with_objects", True), ("without_objects", False)):
-        with tempfile.TemporaryDirectory() as tmp:
-            db = tdb.open(Path(tmp) / "s.tdb", create=True)
-            n = iter(range(RUNS))
-
-            def run(db: Any = db, objects: bool = objects, n: Any = n) -> None:
-                ingest(cloud, db, version=f"v{next(n)}", options=IngestOptions(objects=objects))
-
-            out[label] = _median_time(run)
-            db.close()
+    """Medians of runs with and without the objects, taken in turns: the machine's speed drifts
+    over minutes, and two blocks of runs one after the other would read the drift as a cost."""
+    times: dict[str, list[float]] = {"with_objects": [], "without_objects": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        db = tdb.open(Path(tmp) / "s.tdb", create=True)
+        for k in range(RUNS):
+            for label, objects in (("with_objects", True), ("without_objects", False)):
+                start = time.perf_counter()
+                ingest(cloud, db, version=f"{label}{k}", options=IngestOptions(objects=objects))
+                times[label].append(time.perf_counter() - start)
+        db.close()
+    out = {label: statistics.median(t) for label, t in times.items()}
     out["slowdown_pct"] = 100 * (out["with_objects"] / out["without_objects"] - 1)
     return out
 

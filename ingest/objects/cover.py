@@ -22,7 +22,7 @@ from scipy import ndimage
 from ingest.ground.grids import Grid, quantised
 from ingest.ground.hills import point_spacing
 from ingest.objects.climb import NEIGHBOURS
-from ingest.objects.heights import TopRaster, above_ground
+from ingest.objects.heights import TopRaster, above_ground, flat_cells
 from ingest.objects.mixture import fit_two
 from ingest.objects.texture import median_texture
 from tdb.cloud import (
@@ -161,8 +161,8 @@ def classify_cover(
         h[skip] = np.nan
     spacing = pulse_spacing(cloud)
     grid = Grid.covering(cloud.xyz[:, :2], cell_size(spacing, spacings=p.cell_spacings))
-    top = TopRaster.of(grid, cloud.xyz[:, :2], h)
-    cell = top.cells_of(cloud.xyz[:, :2])
+    cell = flat_cells(grid, cloud.xyz[:, :2])
+    top = TopRaster.of(grid, cloud.xyz[:, :2], h, cells=cell)
     multi = separate_echoes(cloud)
     echo_test = bool(multi.any())
     if not echo_test:

@@ -16,6 +16,12 @@ def above_ground(xyz: NDArray[np.float64], dtm: Raster) -> NDArray[np.float64]:
     return xyz[:, 2] - dtm.sample(xyz[:, 0], xyz[:, 1])
 
 
+def flat_cells(grid: Grid, xy: NDArray[np.float64]) -> NDArray[np.intp]:
+    """The flat index (row × columns + column) of each point's cell of ``grid``."""
+    row, col = grid.index(xy)
+    return row * grid.shape[1] + col
+
+
 @dataclass(frozen=True)
 class TopRaster:
     """The highest point per cell: its height above ground and its index (rows south to north).
@@ -28,10 +34,13 @@ class TopRaster:
     index: NDArray[np.intp]
 
     @classmethod
-    def of(cls, grid: Grid, xy: NDArray[np.float64], h: NDArray[np.float64]) -> TopRaster:
+    def of(
+        cls, grid: Grid, xy: NDArray[np.float64], h: NDArray[np.float64], *, cells: NDArray[np.intp] | None = None
+    ) -> TopRaster:
+        """The raster of the points ``xy`` with heights ``h``; ``cells``: their flat cells
+        (:func:`flat_cells`), where the caller has them."""
         known = np.flatnonzero(np.isfinite(h))
-        row, col = grid.index(xy[known])
-        flat = row * grid.shape[1] + col
+        flat = flat_cells(grid, xy[known]) if cells is None else cells[known]
         size = grid.shape[0] * grid.shape[1]
         # Two passes over the points and no sort: the highest per cell, then which point it is
         # (of equal heights, the last in the input).
@@ -45,8 +54,7 @@ class TopRaster:
 
     def cells_of(self, xy: NDArray[np.float64]) -> NDArray[np.intp]:
         """Flat cell index of each point."""
-        row, col = self.grid.index(xy)
-        return row * self.grid.shape[1] + col
+        return flat_cells(self.grid, xy)
 
     def plane_departure(self, xy: NDArray[np.float64], cells: NDArray[np.bool_]) -> NDArray[np.float64]:
         """At the ``cells`` asked for, the root-mean-square departure (m) of top points from

@@ -28,7 +28,7 @@ from ingest.objects.cover import Cover, cell_size
 from ingest.objects.crown_envelope import crossed_boundaries
 from ingest.objects.crown_size import crown_diameters, under_base
 from ingest.objects.crowns import choose_scales
-from ingest.objects.heights import TopRaster
+from ingest.objects.heights import TopRaster, flat_cells
 from tdb.cloud import HIGH_VEGETATION, MEDIUM_VEGETATION, PointCloud
 from tdb.fill import fill_nearest
 from tdb.objects import Tree
@@ -87,7 +87,8 @@ def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = N
     grid = Grid.covering(cloud.xyz[tall, :2], cell_size(cover.spacing, spacings=p.cell_spacings))
     near = _inside(grid, cloud.xyz[:, :2]) & np.isfinite(cover.height)
     xyz = cloud.xyz[near]
-    top = TopRaster.of(grid, xyz[:, :2], cover.height[near])
+    cells = flat_cells(grid, xyz[:, :2])
+    top = TopRaster.of(grid, xyz[:, :2], cover.height[near], cells=cells)
     mask = _crown_cells(top, tall[near])
     canopy = crown_surface(np.where(mask, top.height, np.nan), mask, grid.cell, params=p)
     scales = [climb(smoothed(canopy, mask, s / grid.cell), mask) for s in sorted(p.scales, reverse=True)]
@@ -95,7 +96,7 @@ def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = N
     labels = choose_scales(scales, canopy, grid.cell, noise=p.noise, min_cells=min_cells)
     if p.crossing_area is not None:
         labels = crossed_boundaries(labels, canopy, grid.cell, min_area=p.crossing_area)
-    crown = np.where(tall[near], labels.ravel()[top.cells_of(xyz[:, :2])], -1)
+    crown = np.where(tall[near], labels.ravel()[cells], -1)
     shortfall = crown_shortfalls(crown, cover.height[near], xyz[:, :2], n=int(labels.max()) + 1)
     return _measure(labels, under_base(labels, canopy, p.crown_base), top, xyz, min_cells, shortfall)
 
