@@ -4,7 +4,7 @@ On a synthetic scene (500 m, 10 pulses/m², seed 1) and the real files: the poin
 of :func:`ingest.objects.find_objects` (the ground model given, as ``tdb classify`` and
 ``tdb trees`` run it after the ground filter), and the time of a whole ``tdb ingest`` with the
 objects and without (``IngestOptions(objects=False)``, ``--no-objects``), run in turns. Medians
-of three, in the plain environment.
+of five, in the plain environment.
 
     python -m benchmarks.objects_speed
 """
@@ -31,7 +31,7 @@ from tdb.units import to_metres
 
 SIZE, DENSITY, SEED = 500.0, 10.0, 1
 REAL = ("las/MixedConifer.laz", "epochs/TTP_2019.laz")
-RUNS = 3
+RUNS = 5
 
 
 def _median_time(run: Any) -> float:

@@ -100,7 +100,8 @@ def objects_section(
         s, i = speed["scene"], speed["ingest"]
         out += [
             "",
-            "`python -m benchmarks.objects_speed` (medians of three, the ground model given): "
+            "`python -m benchmarks.objects_speed` (medians of five, the ground model given; the ingests "
+            "with and without the objects in turns): "
             f"synthetic {s['size_m']:.0f} m at {s['density']:g} pulses/m², {s['points']:,} points: "
             f"**{s['points_per_s'] / 1e6:.2f} M points/s**"
             + "".join(
