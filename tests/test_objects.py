@@ -595,3 +595,19 @@ def test_objects_of_a_wide_extent_are_found_block_by_block(small_cloud, monkeypa
     tops = {(round(t.x, 1), round(t.y, 1)) for t in blocks.trees}
     assert len(tops) == len(blocks.trees)  # each tree once
     assert abs(len(blocks.trees) - len(whole.trees)) <= 0.05 * len(whole.trees)
+
+
+def test_no_shortfall_where_the_survey_would_lift_a_crown_by_more_than_its_height() -> None:
+    """Crowns whose returns spread tens of metres below tops a few metres high (a ground model
+    bridging a gap under tall artefacts): the gaps are no sampling shortfall, and none is added.
+    The same crowns reaching 5 m down from 20 m tops get one, under a metre."""
+    from ingest.objects.apex import crown_shortfalls
+
+    rng = np.random.default_rng(5)
+    crowns, each = 30, 40
+    seg = np.repeat(np.arange(crowns), each)
+    xy = rng.uniform(0, 100, (crowns * each, 2))
+    sane = crown_shortfalls(seg, rng.uniform(15, 20, crowns * each), xy, n=crowns)
+    assert (sane > 0).all() and sane.max() < 1.0
+    artefacts = crown_shortfalls(seg, rng.uniform(-60, 5, crowns * each), xy, n=crowns)
+    assert (artefacts == 0).all()

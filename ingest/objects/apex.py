@@ -17,6 +17,11 @@ its returns (k / (π ρ) = D / n for a crown of depth D = k R² and n = ρ π R�
 crown's depth grows with its tree's height. So each crown gets b_k = c h_k n_k^(−α), its highest
 return's height h_k and its returns n_k, with c such that the crowns measured above average the
 survey's b: a small crown on a tall tree falls further short than a broad one on a low tree.
+
+A crown's shortfall is less than its depth, and its depth less than its tree's height, so c, the
+share of its height that a crown of one return falls short, is under one. Where the crowns
+measured give c over one, the gaps are no sampling shortfall (a survey of artefacts, a ground
+model bridging wide gaps under tall objects): no shortfall is added.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ DEALS = 8
 # Returns per crown that can hold the maximum of one of its quarters: the highest of this many
 # misses a quarter with chance (3/4)^64, under 1e-8.
 HIGHEST = 64
+MAX_SHARE = 1.0  # c: a crown's shortfall is less than its tree's height (the module's text)
 
 
 def sampling_shortfall(segment: NDArray[np.intp], height: NDArray[np.float64], xy: NDArray[np.float64]) -> float:
@@ -62,6 +68,8 @@ def crown_shortfalls(
     weight = np.where(count > 0, np.maximum(top, 0.0) * np.maximum(count, 1.0) ** -alpha, 0.0)
     # the first deal may have found no crown with returns in all four parts where others did
     scale = float(np.mean(weight[measured])) if len(measured) else 0.0
+    if scale > 0 and mean / scale > MAX_SHARE:
+        return np.zeros(n)
     return mean * weight / scale if scale > 0 else np.full(n, mean)
 
 
