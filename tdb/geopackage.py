@@ -19,7 +19,7 @@ import numpy as np
 import shapely
 
 from tdb.atomic import atomic_path
-from tdb.errors import InputError
+from tdb.errors import InputError, TdbWarning
 
 NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _MULTI = {"LineString": "MultiLineString", "Polygon": "MultiPolygon", "Point": "MultiPoint"}
@@ -62,12 +62,23 @@ def write_geopackage(
     extend = append and target.exists()
     if extend and not is_geopackage(target):
         raise InputError(f"{target}: not a GeoPackage; cannot add layers to it")
-    wkt = None if crs is None else crs.to_wkt()
+    wkt = None if crs is None else _srs(crs)
     with atomic_path(target, errors=(pyogrio.errors.DataSourceError, pyogrio.errors.DataLayerError)) as tmp:
         if extend:
             shutil.copyfile(target, tmp)
         for name, features in layers.items():
             _write_layer(tmp, name, features, wkt)
+
+
+def _srs(crs: Any) -> str:
+    """The CRS as GDAL is to record it: by its EPSG code where it is that code's CRS (GDAL then
+    writes the register's definition, which QGIS knows by name), else by its own WKT."""
+    import pyproj
+
+    code = crs.to_epsg()
+    if code is not None and crs.equals(pyproj.CRS.from_epsg(code)):
+        return f"EPSG:{code}"
+    return str(crs.to_wkt())
 
 
 def is_geopackage(path: str | os.PathLike[str]) -> bool:
@@ -104,8 +115,8 @@ def _write_layer(path: Path, name: str, features: Sequence[dict[str, Any]], wkt:
     if {k.lower() for k in keys} & {"fid", "geom"}:
         raise InputError(f"layer {name!r}: attribute names 'fid' and 'geom' are taken by the GeoPackage")
     columns = [_column([f.get("properties", {}).get(k) for f in features]) for k in keys]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # no CRS is what the caller asked for
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         write(
             str(path),
             np.array([None if g is None else shapely.to_wkb(g, output_dimension=2) for g in geoms], dtype=object),
@@ -117,6 +128,25 @@ def _write_layer(path: Path, name: str, features: Sequence[dict[str, Any]], wkt:
             geometry_type=kinds.pop() if len(kinds) == 1 else "Unknown",
             promote_to_multi=False,
         )
+    for w in caught:
+        _pass_on(w, name)
+
+
+def _pass_on(w: warnings.WarningMessage, layer: str) -> None:
+    """GDAL's warnings while writing, said as tdb says things, or passed on as they came."""
+    text = str(w.message)
+    if issubclass(w.category, UserWarning):
+        return  # pyogrio's: no CRS, which is what the caller asked for
+    official = re.search(r"uses (\S+) identification, but its definition is not compatible", text)
+    if official:
+        warnings.warn(
+            f"layer {layer!r}: GDAL finds the CRS named {official.group(1)} unlike that code's definition; "
+            "it is written with the survey's own, which QGIS shows as a custom CRS",
+            TdbWarning,
+            stacklevel=3,
+        )
+        return
+    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
 
 def _column(values: list[Any]) -> np.ndarray:

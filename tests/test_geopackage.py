@@ -16,6 +16,20 @@ from tdb.geopackage import write_geopackage
 
 APPLICATION_ID = 0x47504B47  # "GPKG"
 CUSTOM_SRS = 100000  # GDAL's first id for a CRS without an EPSG code
+LAMBERT_93_AS_DELIVERED = (  # as pyproj reads an IGN LiDAR HD file's header
+    'PROJCRS["RGF93 / Lambert-93",BASEGEOGCRS["RGF93",DATUM["Reseau Geodesique Francais 1993",'
+    'ELLIPSOID["GRS 1980",6378137,298.2572221,LENGTHUNIT["metre",1]]],'
+    'PRIMEM["Greenwich",0,ANGLEUNIT["degree",0.0174532925199433]],ID["EPSG",4171]],'
+    'CONVERSION["Lambert-93",METHOD["Lambert Conic Conformal (2SP)",ID["EPSG",9802]],'
+    'PARAMETER["Latitude of false origin",46.5,ANGLEUNIT["degree",0.0174532925199433]],'
+    'PARAMETER["Longitude of false origin",3,ANGLEUNIT["degree",0.0174532925199433]],'
+    'PARAMETER["Latitude of 1st standard parallel",49,ANGLEUNIT["degree",0.0174532925199433]],'
+    'PARAMETER["Latitude of 2nd standard parallel",44,ANGLEUNIT["degree",0.0174532925199433]],'
+    'PARAMETER["Easting at false origin",700000,LENGTHUNIT["metre",1]],'
+    'PARAMETER["Northing at false origin",6600000,LENGTHUNIT["metre",1]]],'
+    'CS[Cartesian,2],AXIS["easting (X)",east,ORDER[1],LENGTHUNIT["metre",1]],'
+    'AXIS["northing (Y)",north,ORDER[2],LENGTHUNIT["metre",1]],ID["EPSG",2154]]'
+)
 
 FEATURES = [
     {
@@ -147,3 +161,20 @@ def test_a_failed_write_leaves_the_old_file(tmp_path):
         write_geopackage(path, {"two words": FEATURES}, crs=None)
     assert path.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.gpkg"]  # no temporary file left
+
+
+def test_a_crs_that_is_an_epsg_code_is_written_as_that_code_without_gdal_warnings(tmp_path):
+    """A LAS header's WKT (IGN LiDAR HD's) that names EPSG:2154 with an older datum name and its
+    flattening rounded is EPSG:2154 to pyproj; GDAL would call it incompatible, warn, and write
+    a custom CRS."""
+    import warnings
+
+    rounded = CRS.from_wkt(LAMBERT_93_AS_DELIVERED)
+    assert rounded.to_wkt() != CRS.from_epsg(2154).to_wkt() and rounded.equals(CRS.from_epsg(2154))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        write_geopackage(tmp_path / "a.gpkg", {"x": FEATURES}, crs=rounded)
+    assert not [w for w in caught if issubclass(w.category, RuntimeWarning)]
+    con = sqlite3.connect(tmp_path / "a.gpkg")
+    assert con.execute("SELECT srs_id FROM gpkg_geometry_columns").fetchone()[0] == 2154
+    con.close()
