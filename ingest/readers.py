@@ -62,6 +62,9 @@ def read(
         raise TdbIOError(f"{p}: permission denied")
     if is_las(p):
         cloud = _read_las(p, chunk_size=chunk_size)
+    elif p.suffix.lower() in LAS_SUFFIXES:
+        # a damaged download or a wrong name, not a text table: say what it is not
+        raise FormatError(f"{p}: not a LAS/LAZ file (it does not begin with the signature 'LASF')")
     else:
         cloud = _read_text(p, labels=parse(LabelScheme, labels))
     if crs is not None:
@@ -173,6 +176,9 @@ def las_crs(path: Path) -> Any:
             return reader.header.parse_crs()
     except Exception as exc:  # laspy raises several types for odd headers and CRS records
         raise FormatError(f"{path}: unreadable header or coordinate system record ({exc})") from None
+
+
+LAS_SUFFIXES = (".las", ".laz")
 
 
 def is_las(path: Path) -> bool:

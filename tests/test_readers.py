@@ -81,6 +81,15 @@ def test_truncated_las(tmp_path, suffix):
         read(path)
 
 
+@pytest.mark.parametrize("name", ["survey.laz", "SURVEY.LAS"])
+def test_a_las_name_without_the_signature_is_no_las_file(tmp_path, name):
+    """A damaged download or a renamed table: said so, not read as a table of numbers."""
+    path = tmp_path / name
+    path.write_text("500000 5500000 10\n500001 5500000 11\n500000 5500001 12\n")
+    with pytest.raises(FormatError, match=r"not a LAS/LAZ file.*LASF"):
+        read(path)
+
+
 def test_corrupt_las_header(tmp_path):
     path = tmp_path / "bad.las"
     path.write_bytes(b"LASF" + b"\xff" * 300)
