@@ -93,3 +93,19 @@ def test_the_mesh_follows_the_category_and_its_faces_agree_with_its_heights(anti
     gx, gy = np.meshgrid(grid.x0 + np.arange(grid.cols) * grid.cell, grid.y0 - np.arange(grid.rows) * grid.cell)
     located = mesh_height(mesh, np.column_stack([gx.ravel(), gy.ravel()])).reshape(gx.shape)
     np.testing.assert_allclose(mesh_grid(mesh, grid), located, atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(1, 300), seed=st.integers(0, 2**16))
+def test_morton_order_interleaves_the_bits_of_x_and_y(n, seed):
+    """The order is by the Z-order key, bit b of x at bit 2b and of y at 2b + 1, worked out here
+    bit by bit; of equal keys the first first."""
+    from tdb.bbox import column_range
+    from tdb.tin import morton_order
+
+    rng = np.random.default_rng(seed)
+    xy = np.round(rng.uniform(0, 50, (n, 2)), 1)  # ties too
+    lo, hi = column_range(xy)
+    q = ((xy - lo) / max(float((hi - lo).max()), 1e-9) * 65535).astype(np.int64)
+    key = sum(((q[:, 0] >> b) & 1) << (2 * b) | ((q[:, 1] >> b) & 1) << (2 * b + 1) for b in range(16))
+    np.testing.assert_array_equal(morton_order(xy), np.argsort(key, kind="stable"))
