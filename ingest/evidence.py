@@ -13,7 +13,7 @@ from tdb.evidence import LEVEL, SUPPORT_SPACINGS, TileEvidence
 from tdb.kdtree import plan_tree
 from tdb.median import median_filter
 from tdb.raster import Raster
-from tdb.sort import by_group
+from tdb.sort import by_group, highest_per_group
 
 NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic's six terms
 TOLERANCE = 0.1  # m per m: what a neighbour carried along the surface may fall short by
@@ -217,18 +217,6 @@ def _ranked(cell: NDArray[np.int64], key: NDArray[np.float64]) -> tuple[NDArray[
     return order, np.flatnonzero(np.r_[True, run[1:] != run[:-1]]) if len(run) else order
 
 
-def _highest(cell: NDArray[np.int64], z: NDArray[np.float64]) -> NDArray[np.intp]:
-    """The index of each cell's highest point (of equal ones the first), cells ascending: two
-    passes over the points, where sorting them by cell and height costs several times more."""
-    size = int(cell.max()) + 1 if len(cell) else 0
-    top = np.full(size, -np.inf)
-    np.maximum.at(top, cell, z)
-    at_top = np.flatnonzero(z == top[cell])
-    first = np.full(size, len(cell), np.intp)
-    np.minimum.at(first, cell[at_top], at_top)
-    return first[first < len(cell)]
-
-
 def _tile_lift(
     g: NDArray[np.float64], xg: NDArray[np.int64], yg: NDArray[np.int64], *, tree: cKDTree | None = None
 ) -> NDArray[np.float64]:
@@ -240,7 +228,7 @@ def _tile_lift(
     if len(g):
         cell = grid.cells(g[:, 0], g[:, 1])
         inside = np.flatnonzero(cell >= 0)
-        top = inside[_highest(cell[inside], g[inside, 2])]
+        top = inside[highest_per_group(cell[inside], g[inside, 2])]
         total[cell[top]] = envelope_lift(g, at=top, tree=tree)
         count[cell[top]] = 1.0
     total, count = total.reshape(grid.shape), count.reshape(grid.shape)
@@ -258,7 +246,7 @@ def _node_gaps(
     yg: NDArray[np.int64],
     radius: float,
     *,
-    tree: cKDTree | None = None,
+    tree: cKDTree | None,
 ) -> NDArray[np.float64]:
     """(tiles, 9): how far (m) each tile's 3 × 3 nodes lie beyond ``radius`` from the nearest
     ground return (0 within it). Beyond a few hundred metres it is capped: the gap term is then
@@ -267,7 +255,8 @@ def _node_gaps(
     Neighbouring tiles share nodes: each node is found once, on a raster of the node lattice over
     the tiles' extent (smaller than the dense model's), and read back by its place. Each return
     first marks the nodes within ``radius`` of it, a few passes over the returns; only the nodes
-    left unmarked, the gaps, need their nearest return searched for."""
+    left unmarked, the gaps, need their nearest return searched for. ``tree``:
+    :func:`tdb.kdtree.plan_tree` of ``g`` (None where ``g`` is empty)."""
     step = LEVEL // 2
     du, dv = (a.ravel() for a in np.meshgrid([0, 1, 2], [0, 1, 2]))  # in node steps
     cap = max(100.0 * radius, 50.0)
@@ -283,7 +272,8 @@ def _node_gaps(
     beyond = np.zeros(touched.shape)
     if len(nj):
         nodes = np.column_stack([x0 + ni * float(step), y0 + nj * float(step)])
-        d, _ = (tree if tree is not None else plan_tree(g[:, :2])).query(nodes, k=1, distance_upper_bound=cap)
+        assert tree is not None  # g holds returns here
+        d, _ = tree.query(nodes, k=1, distance_upper_bound=cap)
         beyond[nj, ni] = np.maximum(np.minimum(d, cap) - radius, 0.0)
     return beyond[rows, cols]
 

@@ -27,6 +27,13 @@ def epsg_of(crs: pyproj.CRS | None) -> int | None:
     return int(code) if code is not None else None
 
 
+def exact_epsg(crs: pyproj.CRS) -> int | None:
+    """The EPSG code whose CRS ``crs`` is (pyproj finds the two equal), else None: stricter than
+    :func:`epsg_of`, for writing the code in place of the definition."""
+    code = crs.to_epsg()
+    return int(code) if code is not None and crs.equals(pyproj.CRS.from_epsg(code)) else None
+
+
 def horizontal_part(crs: pyproj.CRS | None) -> pyproj.CRS | None:
     """The horizontal CRS of ``crs`` (its first part where it is compound)."""
     if crs is None or not crs.is_compound:

@@ -19,6 +19,7 @@ import numpy as np
 import shapely
 
 from tdb.atomic import atomic_path
+from tdb.crs import exact_epsg
 from tdb.errors import InputError, TdbWarning
 
 NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
@@ -73,12 +74,8 @@ def write_geopackage(
 def _srs(crs: Any) -> str:
     """The CRS as GDAL is to record it: by its EPSG code where it is that code's CRS (GDAL then
     writes the register's definition, which QGIS knows by name), else by its own WKT."""
-    import pyproj
-
-    code = crs.to_epsg()
-    if code is not None and crs.equals(pyproj.CRS.from_epsg(code)):
-        return f"EPSG:{code}"
-    return str(crs.to_wkt())
+    code = exact_epsg(crs)
+    return f"EPSG:{code}" if code is not None else str(crs.to_wkt())
 
 
 def is_geopackage(path: str | os.PathLike[str]) -> bool:

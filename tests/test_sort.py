@@ -6,8 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ingest.evidence import _highest
-from tdb.sort import by_group
+from tdb.sort import by_group, highest_per_group
 
 
 @settings(max_examples=80, deadline=None)
@@ -39,4 +38,4 @@ def test_highest_per_cell_is_the_first_of_the_highest(n, cells, seed):
     cell = rng.integers(0, cells, n).astype(np.int64)
     z = rng.integers(0, 4, n).astype(float)  # many ties
     expected = [np.flatnonzero((cell == c) & (z == z[cell == c].max()))[0] for c in np.unique(cell)]
-    np.testing.assert_array_equal(_highest(cell, z), expected)
+    np.testing.assert_array_equal(highest_per_group(cell, z), expected)
