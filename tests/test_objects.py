@@ -523,14 +523,28 @@ def test_the_shortfall_of_a_paraboloid_is_its_curvature_over_pi_times_the_densit
     assert np.mean(found) == pytest.approx(expected, rel=0.33)
 
 
-def test_the_shortfall_holds_survey_by_survey_not_only_on_the_mean() -> None:
-    """Read from one deal of the returns, α swung the shortfall to 1.8 times the truth on some
-    surveys of 2 returns/m²; averaged over several deals, every survey lands within 40 %."""
+def _true_shortfall(seg: np.ndarray, z: np.ndarray, apex: float = 20.0) -> float:
+    """The mean of the crowns' true shortfalls: the apex less each crown's highest return."""
+    on = seg >= 0
+    top = np.full(int(seg.max()) + 1, -np.inf)
+    np.maximum.at(top, seg[on], z[on])
+    return float(np.mean(apex - top[np.isfinite(top)]))
+
+
+@pytest.mark.parametrize("density", [2.0, 8.0])
+def test_the_shortfall_holds_where_returns_reach_into_the_crown(density: float) -> None:
+    """First returns that reach some way into a crown make the lowest shortfalls rare, so the
+    shortfall falls more slowly than 1 / n: read with one power of n from the halves and quarters
+    it came out a fifth short (0.77–0.89 of the truth). Its two terms find it, on the mean over
+    surveys within a tenth, and survey by survey within 40 %."""
     from ingest.objects.apex import sampling_shortfall
 
-    expected = float(np.mean(_paraboloid_crowns(2.0, 0)[3])) / (np.pi * 2.0)
-    found = np.array([sampling_shortfall(*_paraboloid_crowns(2.0, seed)[:3]) for seed in range(12)])
-    assert np.abs(found / expected - 1).max() < 0.4
+    ratios = []
+    for seed in range(12):
+        seg, z, xy, _ = _paraboloid_crowns(density, seed, depth=0.3)
+        ratios.append(sampling_shortfall(seg, z, xy) / _true_shortfall(seg, z))
+    assert abs(np.mean(ratios) - 1) < 0.1
+    assert np.abs(np.array(ratios) - 1).max() < 0.4
 
 
 def test_the_shortfall_grows_with_the_depth_into_the_crown_and_is_zero_without_crowns() -> None:

@@ -5,26 +5,34 @@ seldom hit the apex, and a first return reaches some way into the crown. The sho
 the crowns are sampled more densely, so the survey measures it by sampling itself more thinly:
 its crown returns are dealt into four parts by a hash of their coordinates, and over all its
 trees the highest return of half of them, and of a quarter, fall short of the highest of all by
-mean gaps g₁ (all to half) and g₂ (half to quarter). For a shortfall b(n) = C n^(−α) of n returns,
-g₁ = b(n) (2^α − 1) and g₂ = 2^α g₁, so α = log₂(g₂ / g₁) and b(n) = g₁ / (2^α − 1). α lies between
-½ (the first return's depth into the crown dominating: the least of n depths near the apex) and
-1 (the crown's curvature dominating: a paraboloid's highest of n returns falls short of its top by
-its curvature over π times the density), and is held there. The gaps are averaged over several
-deals, each by another hash: α is read from their ratio, which one deal leaves too uncertain.
+mean gaps g₁ (all to half) and g₂ (half to quarter).
 
-Per crown, the same law with the crown's own terms: a paraboloid's shortfall is its depth over
-its returns (k / (π ρ) = D / n for a crown of depth D = k R² and n = ρ π R² returns), and a
-crown's depth grows with its tree's height. So each crown gets b_k = c h_k n_k^(−α), its highest
-return's height h_k and its returns n_k, with c such that the crowns measured above average the
-survey's b: a small crown on a tall tree falls further short than a broad one on a low tree.
+The shortfall of the highest of n returns has two terms. A crown's curvature alone puts it at
+a paraboloid's depth over its returns, D / n (the highest of n returns spread evenly over a
+depth D); the returns' depth into the crown, added to it, makes the lowest shortfalls rarer, as
+the square of their size, so that term falls as n^(−½). Over a crown of depth D whose returns
+reach a depth λ into it, it is about √(λ D / n). So b(n) = a + β with a ∝ 1/n and β ∝ 1/√n at the
+survey's n, and the gaps give both: g₁ = a + (√2 − 1) β and g₂ = 2a + (2 − √2) β. Where the gaps
+fall faster than 1/n or slower than 1/√n (noise in a few crowns) the one term that fits them is
+taken. A single power of n fitted to the two gaps reads the local power between a quarter and a
+half of the returns, steeper than at all of them, and so falls short of the shortfall itself.
+The gaps are averaged over several deals, each by another hash: their ratio, which sets the two
+terms' shares, is too uncertain from one.
 
-A crown's shortfall is less than its depth, and its depth less than its tree's height, so c, the
-share of its height that a crown of one return falls short, is under one. Where the crowns
-measured give c over one, the gaps are no sampling shortfall (a survey of artefacts, a ground
-model bridging wide gaps under tall objects): no shortfall is added.
+Per crown, each term with the crown's own figures: a crown's depth grows with its tree's height,
+so crown k gets A h_k / n_k + B √(h_k / n_k), its highest return's height h_k and its returns
+n_k, with A and B such that the crowns measured above average the survey's a and β: a small crown
+on a tall tree falls further short than a broad one on a low tree.
+
+A crown's shortfall is less than its depth, and its depth less than its tree's height, so a crown
+of one return falls short by less than its height: A + B / √h_k, averaged over the crowns
+measured, is under one. Where it is not, the gaps are no sampling shortfall (a survey of
+artefacts, a ground model bridging wide gaps under tall objects): no shortfall is added.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,14 +41,25 @@ from ingest.noise import coordinate_hash
 from tdb.tin import group_starts
 
 PARTS = 4  # halves and quarters of each crown's returns
-ALPHA = (0.5, 1.0)  # the shortfall's power of the density: depth into the crown, the crown's curvature
-# Deals averaged, each by another hash: one deal's gaps are too noisy for their ratio, and α,
-# read from it, then moves the shortfall by as much as the shortfall itself.
+# Deals averaged, each by another hash: one deal's gaps are too noisy for their ratio, which
+# sets how the shortfall divides between its two terms.
 DEALS = 8
 # Returns per crown that can hold the maximum of one of its quarters: the highest of this many
 # misses a quarter with chance (3/4)^64, under 1e-8.
 HIGHEST = 64
-MAX_SHARE = 1.0  # c: a crown's shortfall is less than its tree's height (the module's text)
+MAX_SHARE = 1.0  # a crown of one return falls short by less than its tree's height (the module's text)
+_ROOT2 = float(np.sqrt(2.0))
+
+
+class SurveyLaw(NamedTuple):
+    """The survey's mean shortfall in its two terms (m), and the crowns they were measured on."""
+
+    curvature: float  # a: falls as 1 / n
+    depth: float  # β: falls as 1 / √n
+    measured: NDArray[np.intp]
+
+
+_NONE = SurveyLaw(0.0, 0.0, np.zeros(0, np.intp))
 
 
 def sampling_shortfall(segment: NDArray[np.intp], height: NDArray[np.float64], xy: NDArray[np.float64]) -> float:
@@ -48,51 +67,66 @@ def sampling_shortfall(segment: NDArray[np.intp], height: NDArray[np.float64], x
     survey: ``segment`` gives each return's crown (−1: none), ``height`` its height, ``xy`` its
     plan position. 0 where no crown has returns in all four parts, or the gaps do not shrink as
     the sampling grows (no shortfall to measure)."""
-    return _survey_law(segment, height, xy)[0]
+    law = _survey_law(segment, height, xy)
+    return law.curvature + law.depth
 
 
 def crown_shortfalls(
     segment: NDArray[np.intp], height: NDArray[np.float64], xy: NDArray[np.float64], *, n: int
 ) -> NDArray[np.float64]:
-    """The shortfall (m) of each crown 0 … ``n`` − 1: the survey's law (:func:`sampling_shortfall`)
-    with each crown's own height and number of returns (the module's text); 0 for a crown with no
-    returns, and for all where the survey has no shortfall to measure."""
+    """The shortfall (m) of each crown 0 … ``n`` − 1: the survey's two terms
+    (:func:`sampling_shortfall`) with each crown's own height and number of returns (the module's
+    text); 0 for a crown with no returns, and for all where the survey has no shortfall to measure."""
     seg = np.asarray(segment, np.intp)
-    mean, alpha, measured = _survey_law(seg, height, xy)
-    if mean == 0.0 or n == 0:
+    law = _survey_law(seg, height, xy)
+    if law.curvature + law.depth == 0.0 or n == 0:
         return np.zeros(n)
     on = seg >= 0
     count = np.bincount(seg[on], minlength=n).astype(float)
     top = np.zeros(n)
     np.maximum.at(top, seg[on], np.asarray(height, float)[on])
-    weight = np.where(count > 0, np.maximum(top, 0.0) * np.maximum(count, 1.0) ** -alpha, 0.0)
-    # the first deal may have found no crown with returns in all four parts where others did
-    scale = float(np.mean(weight[measured])) if len(measured) else 0.0
-    if scale > 0 and mean / scale > MAX_SHARE:
+    top = np.maximum(top, 0.0)
+    per_return = np.where(count > 0, top / np.maximum(count, 1.0), 0.0)
+    terms = (per_return, np.sqrt(per_return))  # curvature, depth
+    measured = law.measured
+    scales = [float(np.mean(w[measured])) if len(measured) else 0.0 for w in terms]
+    if min(scales) <= 0:
+        return np.full(n, law.curvature + law.depth)
+    a, b = law.curvature / scales[0], law.depth / scales[1]
+    tall = top[measured][top[measured] > 0]
+    if not len(tall) or a + b * float(np.mean(1.0 / np.sqrt(tall))) > MAX_SHARE:
         return np.zeros(n)
-    return mean * weight / scale if scale > 0 else np.full(n, mean)
+    return a * terms[0] + b * terms[1]
 
 
-def _survey_law(
-    segment: NDArray[np.intp], height: NDArray[np.float64], xy: NDArray[np.float64]
-) -> tuple[float, float, NDArray[np.intp]]:
-    """The survey's mean shortfall, its power α, and the crowns its gaps were measured on."""
+def _survey_law(segment: NDArray[np.intp], height: NDArray[np.float64], xy: NDArray[np.float64]) -> SurveyLaw:
+    """The survey's mean shortfall in its two terms, and the crowns its gaps were measured on."""
     seg = np.asarray(segment, np.intp)
     on = seg >= 0
-    none = (0.0, ALPHA[0], np.zeros(0, np.intp))
     if not on.any():
-        return none
+        return _NONE
     keep = _highest(seg[on], np.asarray(height, float)[on], HIGHEST)
     seg, h, xy = seg[on][keep], np.asarray(height, float)[on][keep], np.asarray(xy, float)[on][keep]
     deals = [_gaps(seg, h, xy, deal) for deal in range(DEALS)]
     gaps = np.array([d[:2] for d in deals])
     if np.isnan(gaps).all():
-        return none
+        return _NONE
     g1, g2 = np.nanmean(gaps, axis=0)
     if g1 <= 0 or g2 <= 0:
-        return none
-    alpha = float(np.clip(np.log2(g2 / g1), *ALPHA))
-    return float(g1 / (2**alpha - 1)), alpha, deals[0][2]
+        return _NONE
+    curvature, depth = _two_terms(float(g1), float(g2))
+    return SurveyLaw(curvature, depth, deals[0][2])
+
+
+def _two_terms(g1: float, g2: float) -> tuple[float, float]:
+    """a and β from the gaps g₁ = a + (√2 − 1) β and g₂ = 2a + (2 − √2) β, neither negative."""
+    depth = (2 * g1 - g2) / (2 * (_ROOT2 - 1) - (2 - _ROOT2))
+    curvature = g1 - (_ROOT2 - 1) * depth
+    if depth < 0:  # the gaps fall as 1 / n or faster
+        return g1, 0.0
+    if curvature < 0:  # as 1 / √n or slower
+        return 0.0, g1 / (_ROOT2 - 1)
+    return curvature, depth
 
 
 def _highest(seg: NDArray[np.intp], h: NDArray[np.float64], count: int) -> NDArray[np.intp]:
