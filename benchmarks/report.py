@@ -10,7 +10,7 @@ from typing import Any
 
 from benchmarks.common import RESULTS, ROOT
 from benchmarks.common import machine_line as _machine
-from benchmarks.report_feature_peers import feature_peers_section, spread_cv_section
+from benchmarks.report_feature_peers import feature_peers_section, notch_cv_section, spread_cv_section
 from benchmarks.report_objects import crown_section, objects_section
 from benchmarks.report_roofs import ground_roofs_section
 
@@ -1007,6 +1007,8 @@ def main() -> None:
     feature_peers_section(out, peers, _machine(peers) if peers else "", densities)
     spread = _load("spread_cv")
     spread_cv_section(out, spread, _machine(spread) if spread else "")
+    notch = _load("notch_cv")
+    notch_cv_section(out, notch, _machine(notch) if notch else "")
     cv = _load("objects_cv")
     objects_section(out, cv, _load("objects_speed"), _machine(cv) if cv else "")
     crowns = _load("crown_cv")

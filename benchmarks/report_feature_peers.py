@@ -139,3 +139,35 @@ def spread_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) 
         "that reads under 0.25), so it is not set.",
         "",
     ]
+
+
+def notch_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> None:
+    """The widest line the ditch's spread bound lets through, chosen by leave-one-scene-out."""
+    if doc is None:
+        return
+    d = doc["ditch"]
+    out += [
+        "## The widest ditch the spread bound lets through (issue 30)",
+        "",
+        "`python -m benchmarks.notch_cv`: a ditch line whose cross-sections read it at most this wide passes "
+        "`max_spread` whatever its spread (`notch_width`; none: no line does), as a ditch dug along a valley's "
+        "floor. Chosen as the section above chooses, on the same scenes. "
+        f"{doc['density']} pulses/m². Machine: {machine}.",
+        "",
+        "| width m | chosen on: R / P / F1 | never chosen on: R / P / F1 |",
+        "|---|---|---|",
+    ]
+    for setting, r in d["means"].items():
+        mark = " (chosen)" if setting == d["tuned"] else ""
+        out.append(f"| {setting}{mark} | {_rpf(r)} | {_rpf(d['never_chosen_on'][setting])} |")
+    choices: dict[str, int] = {}
+    for v in d["held_out"].values():
+        choices[v["setting"]] = choices.get(v["setting"], 0) + 1
+    picks = ", ".join(f"{s} in {n}" for s, n in sorted(choices.items(), key=lambda kv: -kv[1]))
+    out += [
+        "",
+        f"- Chosen on all {d['tuned']}; without each scene {picks} of the folds; held out F1 "
+        f"{d['held_out_f1']:.4f} (chosen on all: {d['means'][d['tuned']]['f1']:.4f}; with none: "
+        f"{d['means']['none']['f1']:.4f}). Shipped: {d['tuned']} m.",
+        "",
+    ]

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
@@ -36,7 +37,9 @@ from queries.filters import builtin_filters
 from queries.match import find
 
 DENSITY = 4.0
-GRID: dict[str, tuple[float | None, ...]] = {"ridge": (None, 0.25, 0.5, 0.75), "ditch": (None, 0.0, 0.25)}
+Grid = dict[str, tuple[float | None, ...]]  # per filter, the values of the one field put on the grid
+GRID: Grid = {"ridge": (None, 0.25, 0.5, 0.75), "ditch": (None, 0.0, 0.25)}
+FIELD = "min_spread"
 CHOSEN_ON = [("plain", s) for s in range(1, 11)] + [("rugged", s) for s in range(21, 36)]
 NEVER_CHOSEN_ON = [("rugged", s) for s in range(1, 6)]
 
@@ -49,8 +52,10 @@ def _setting(bound: float | None) -> str:
     return "none" if bound is None else f"{bound:g}"
 
 
-def evaluate(case: tuple[str, int]) -> dict[str, dict[str, dict[str, float]]]:
-    """Per filter and bound, recall / precision / F1 on one scene."""
+def evaluate(
+    case: tuple[str, int], *, grid: Grid = GRID, field: str = FIELD
+) -> dict[str, dict[str, dict[str, float]]]:
+    """Per filter and value of its ``field``, recall / precision / F1 on one scene."""
     kind, seed = case
     rugged = kind == "rugged"
     scene = make_scene(seed=seed, size=400.0 if rugged else 300.0, terrain="rugged" if rugged else "plain")
@@ -60,21 +65,22 @@ def evaluate(case: tuple[str, int]) -> dict[str, dict[str, dict[str, float]]]:
     with tempfile.TemporaryDirectory() as tmp:
         db = tdb.open(Path(tmp) / "s.tdb", create=True)
         ingest(sample(scene, density=DENSITY, seed=seed), db, version="v", options=IngestOptions(exclude=()))
-        for name, bounds in GRID.items():
+        for name, bounds in grid.items():
             out[name] = {}
             for bound in bounds:
-                flt = dataclasses.replace(known[name], min_spread=bound)
+                change: dict[str, Any] = {field: bound}
+                flt = dataclasses.replace(known[name], **change)
                 found = shapely.union_all([m.geometry for m in find(db, "v", flt)])
                 out[name][_setting(bound)] = figures(truth[name], found)
     return out
 
 
-def summarise(runs: dict[str, Any]) -> dict[str, Any]:
+def summarise(runs: dict[str, Any], *, grid: Grid = GRID) -> dict[str, Any]:
     """Per filter: the bound chosen on all scenes, each scene's held-out choice and F1, and the
     never-chosen-on scenes scored with the bound chosen on all."""
     doc: dict[str, Any] = {}
     chosen_on = [_name(*c) for c in CHOSEN_ON]
-    for name, bounds in GRID.items():
+    for name, bounds in grid.items():
         table = {_setting(b): {n: runs[n][name][_setting(b)]["f1"] for n in chosen_on} for b in bounds}
         tuned, held = choose(table, {n: n for n in chosen_on})
         never = [_name(*c) for c in NEVER_CHOSEN_ON]
@@ -96,19 +102,26 @@ def summarise(runs: dict[str, Any]) -> dict[str, Any]:
     return doc
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def cross_validate(grid: Grid, field: str, result: str, *, doc: str) -> None:
+    """Every scene scored with every value of ``grid`` for the filters' ``field``, the choice by
+    leave-one-scene-out, saved as ``result``; ``doc`` the command's help."""
+    parser = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
     cases = CHOSEN_ON + NEVER_CHOSEN_ON
+    scored = functools.partial(evaluate, grid=grid, field=field)
     # spawned, not forked: a pool forked from a process whose libraries hold threads can hang
     with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-        runs = {_name(*c): r for c, r in zip(cases, pool.map(evaluate, cases), strict=True)}
-    doc = summarise(runs)
-    for name, d in doc.items():
+        runs = {_name(*c): r for c, r in zip(cases, pool.map(scored, cases), strict=True)}
+    summary = summarise(runs, grid=grid)
+    for name, d in summary.items():
         print(name, "tuned", d["tuned"], "held out F1", round(d["held_out_f1"], 4))
         print("  chosen on", d["means"], "\n  never chosen on", d["never_chosen_on"])
-    print(save("spread_cv", {"density": DENSITY, "grid": GRID, "runs": runs, **doc}))
+    print(save(result, {"density": DENSITY, "field": field, "grid": grid, "runs": runs, **summary}))
+
+
+def main() -> None:
+    cross_validate(GRID, FIELD, "spread_cv", doc=__doc__ or "")
 
 
 if __name__ == "__main__":

@@ -80,6 +80,7 @@ class Filter:
     min_spread: float | None = None  # queries.match: the same, at least this
     max_trend: float | None = None  # queries.profile: the measure's change along a line, over itself, at most
     max_width: float | None = None  # queries.match: the widest a form is (m), where its usual band sees no feet
+    notch_width: float | None = None  # queries.match: at most this wide (m), a line passes max_spread
     max_on_mounds: float | None = None  # queries.match: the most of a line that may lie on mounds (a crest)
     max_by_ditches: float | None = None  # queries.match: the most of a line that may lie by deeper ditches (a lip)
     ditch_ratio: float = 1.0  # queries.match: a ditch by a line counts where this many times as deep as it is high

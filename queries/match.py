@@ -341,10 +341,13 @@ class _Candidates:
     relief: NDArray[np.float64]
     wide: NDArray[np.float64] | None
     objects: list[tuple[NDArray[np.intp], float]]
+    # objects but for their spread, and no arm of theirs an object: matches if narrow (notch_width)
+    notches: list[tuple[NDArray[np.intp], float]]
 
-    def measured(self, g: NDArray[np.intp], flt: Filter, *, level: int) -> float | None:
+    def measured(self, g: NDArray[np.intp], flt: Filter, *, level: int, widest: bool = True) -> float | None:
         """The measure of the group ``g`` (indices into the kept tiles), None where it is not
-        an object of the filter: too low, or for a line too compact or too spread."""
+        an object of the filter: too low, or for a line too compact, too spread (with
+        ``widest``: ``flt.max_spread``) or not spread enough."""
         relief = self.relief[g]
         if not np.isfinite(relief).any():
             measure = float("nan")
@@ -354,7 +357,7 @@ class _Candidates:
             return None
         if flt.linear and elongation(self.ex[g], self.ey[g], level=level) < flt.min_elongation:
             return None
-        if self.wide is not None and not _spread_passes(_spread(self.wide[g], measure), flt):
+        if self.wide is not None and not _spread_passes(_spread(self.wide[g], measure), flt, widest=widest):
             return None
         return measure
 
@@ -395,10 +398,12 @@ def match_tiles(  # noqa: PLR0913 (the tiles' three arrays, their lattice and th
             Match(flt.name, level, found.keep[g], shapely.GeometryCollection(), float("nan"), m)
             for g, m in found.objects
         ]
-    out, failed = _lines(found.objects, found, lattice, (xg, yg, code), flt, level=level)
+    tiles = (xg, yg, code)
+    out, failed = _lines(found.objects, found, lattice, tiles, flt, level=level)
     # A line that fails as a whole may be lines that meet: each arm is judged alone.
     arms = [arm for g, _ in failed for arm in found.arms(g, flt, level=level)]
-    return out + _lines(arms, found, lattice, (xg, yg, code), flt, level=level)[0]
+    notches = _lines(found.notches, found, lattice, tiles, flt, level=level, narrower=flt.notch_width)[0]
+    return out + _lines(arms, found, lattice, tiles, flt, level=level)[0] + notches
 
 
 def _lines(
@@ -409,9 +414,13 @@ def _lines(
     flt: Filter,
     *,
     level: int,
+    narrower: float | None = None,
 ) -> tuple[list[Match], list[tuple[NDArray[np.intp], float]]]:
     """The matches among ``objects`` whose centre lines pass the filter's shoulder, height trend
-    and width tests, and the objects that fail them."""
+    and width tests, and the objects that fail them. With ``narrower``, a match's usual
+    cross-sections also read it at most that wide (m)."""
+    if not objects:
+        return [], []
     geoms = _centre_lines(objects, found, flt, level=level)
     shoulder = np.full(len(objects), np.nan)
     if _line_with_sides(flt) and (flt.min_shoulder is not None or flt.max_shoulder is not None):
@@ -419,6 +428,9 @@ def _lines(
     sections = _Sections(lattice, geoms, flt.measure)
     broad = _broad(sections, shoulder, flt)
     steady = _steady_along(sections, flt) & _narrow(sections, flt)
+    if narrower is not None:
+        sections.fit(range(len(geoms)))
+        steady &= np.array([width_of(sections.of(k)) <= narrower for k in range(len(geoms))], bool)
     xg, yg, code = tiles
     kx, ky, kc = xg[found.keep], yg[found.keep], code[found.keep]
     out, failed = [], []
@@ -517,7 +529,7 @@ def _objects(
     cand = np.flatnonzero(own | facing)
     if len(cand) == 0:
         empty = np.zeros(0)
-        return _Candidates(cand, empty, empty, empty, None, [])
+        return _Candidates(cand, empty, empty, empty, None, [], [])
     # A pair of facing planes is weaker evidence than a valley in a tile: it must stand out by
     # the filter's whole measure, not a share of it, or gentle hollows chain distinct forms
     share = np.where(own[cand], TILE_SHARE, 1.0)
@@ -536,10 +548,17 @@ def _objects(
     keep, relief, ex, ey = cand[ok], relief[ok], ex[ok], ey[ok]
     groups = components(xg[keep], yg[keep], code[keep], flt, level, accept=np.ones(len(keep), bool))
     wide = _relief_farther(lattice, ex, ey, code[keep], flt, level=level)
-    found = _Candidates(keep, ex, ey, relief, wide, [])
+    found = _Candidates(keep, ex, ey, relief, wide, [], [])
     for g in groups:
         measure = found.measured(g, flt, level=level)
-        found.objects.extend([(g, measure)] if measure is not None else found.arms(g, flt, level=level))
+        if measure is not None:
+            found.objects.append((g, measure))
+            continue
+        arms = found.arms(g, flt, level=level)
+        found.objects.extend(arms)
+        if not arms and flt.notch_width is not None:
+            m = found.measured(g, flt, level=level, widest=False)
+            found.notches.extend([(g, m)] if m is not None else [])
     return found
 
 
@@ -570,11 +589,11 @@ def _spread(wide: NDArray[np.float64], measure: float) -> float:
     return float(np.nanmedian(wide)) / measure
 
 
-def _spread_passes(spread: float, flt: Filter) -> bool:
+def _spread_passes(spread: float, flt: Filter, *, widest: bool = True) -> bool:
     """Whether a form's spread lies within the filter's bounds (NaN, unknown, passes): a natural
-    valley or spur widens past its reach (``max_spread``); the strip between two ditches stands
-    out of them alone, not of the land beyond (``min_spread``)."""
-    too_wide = flt.max_spread is not None and spread > flt.max_spread
+    valley or spur widens past its reach (``max_spread``, read with ``widest``); the strip between
+    two ditches stands out of them alone, not of the land beyond (``min_spread``)."""
+    too_wide = widest and flt.max_spread is not None and spread > flt.max_spread
     return not (too_wide or (flt.min_spread is not None and spread < flt.min_spread))
 
 

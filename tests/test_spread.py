@@ -80,3 +80,29 @@ def test_the_trough_at_a_banks_uphill_foot_is_no_ditch(tmp_path):
     assert _found_near(matches, bank) < 0.1
     unbounded = find(db, "v", replace(flt, min_spread=None))  # the bound is what drops the foot
     assert _found_near(unbounded, bank) > 0.5
+
+
+def test_a_ditch_dug_along_a_valley_floor_is_found_and_a_natural_valley_is_not(tmp_path):
+    # Land rolling 2 m either way over 80 m across the lines: a ditch 2 m wide and 0.8 m deep
+    # along a trough's floor, and a natural valley 16 m wide and 0.8 m deep on the crest beside
+    # it. Read twice as far off, the ditch's depth is the trough's too, so the spread bound
+    # alone takes it for a valley that widens; its cross-sections read it narrow.
+    base = make_scene(seed=2, size=160)
+    x0, y0 = base.bounds[:2]
+    k = 2 * np.pi / 80.0
+    relief = Relief(100.0, ((2.0, 0.0, k, -np.pi / 2 - k * (y0 + 50)),), (x0, y0), (1.0, 0.0), 0.0, 1.0)
+
+    def line(y: float) -> shapely.LineString:
+        return shapely.LineString([(x0 + 20, y0 + y - 2), (x0 + 140, y0 + y + 2)])
+
+    ditch = Feature("ditch", line(50), 0.8, 2.0, "V", 0)
+    valley = Feature("valley", line(90), 0.8, 16.0, "natural", 1)
+    scene = replace(base, relief=relief, features=(ditch, valley), buildings=(), trees=())
+    db = tdb.open(tmp_path / "floor.tdb", create=True)
+    ingest(sample(scene, density=4, seed=2), db, version="v", options=IngestOptions(exclude=()))
+    flt = resolve("ditch")
+    assert flt.notch_width is not None and flt.max_spread is not None
+    matches = find(db, "v", flt)
+    assert _found_near(matches, ditch) > 0.8
+    assert _found_near(matches, valley) < 0.1
+    assert _found_near(find(db, "v", replace(flt, notch_width=None)), ditch) < 0.2
