@@ -48,6 +48,11 @@ WIDTH_STEP = 0.05  # m: a fitted width this close to the band's limit reads at t
 ARM = PIECE  # m: an arm of a group is a line of its own where it runs at least this far from the junction
 SPREAD_READ = 2  # a form's spread: its relief read this many times farther off than its relief (max_spread)
 NEAR_MARGIN = 4  # tiles beyond a form's reach that the forms near a line are matched with (_forms_near)
+READ_MARGIN = 2 * WIDE * BAND + 1.0  # m: the farthest from its line a cross-section reads (stretches_of)
+# A line a few metres wide (notch_width) has its banks within a tile of its line: read half as far
+# off as its relief, it keeps more than this share of its relief, where a natural valley's flanks
+# rise over its whole width. Only lines that do are fitted for their width (fits cost time).
+NOTCH_NEAR_SHARE = 0.5
 
 
 class _Sections:
@@ -69,7 +74,9 @@ class _Sections:
         if not todo:
             return
         if self._nodes is None:
-            self._nodes = Nodes.of(*self.lattice.points())
+            # only the nodes the fits can read: the whole lattice's index costs more than the fits
+            boxes = [g.bounds for g in self.geoms if not g.is_empty]
+            self._nodes = Nodes.of(*self.lattice.points_near(boxes, READ_MARGIN))
         lines = [self.geoms[k] for k in todo]
         for k, pieces in zip(todo, stretches_of(lines, self._nodes, measure=self.measure, band=band)):
             self._pieces[k, band] = pieces
@@ -559,7 +566,30 @@ def _objects(
         if not arms and flt.notch_width is not None:
             m = found.measured(g, flt, level=level, widest=False)
             found.notches.extend([(g, m)] if m is not None else [])
+    if found.notches:
+        found.notches[:] = _steep_sided(found, lattice, code[keep], flt, level=level)
     return found
+
+
+def _steep_sided(
+    found: _Candidates, lattice: NodeLattice, code: NDArray[np.uint8], flt: Filter, *, level: int
+) -> list[tuple[NDArray[np.intp], float]]:
+    """The notch candidates whose relief read half as far off as their own keeps at least
+    :data:`NOTCH_NEAR_SHARE` of it (median over their tiles; NaN is kept)."""
+    tiles = np.concatenate([g for g, _ in found.notches])
+    ex, ey = found.ex[tiles], found.ey[tiles]
+    s = lattice.spacing
+    ez = lattice.at(np.rint(ex / s).astype(np.int64), np.rint(ey / s).astype(np.int64))
+    reach = REACH_TILES * level / 2
+    near = two_sided_relief(lattice, ex, ey, ez, measure=flt.measure, reach=reach, along=BREAK_LINES[code[tiles]])
+    starts = np.cumsum([0] + [len(g) for g, _ in found.notches])
+    out = []
+    for (g, m), a, b in zip(found.notches, starts[:-1], starts[1:]):
+        with np.errstate(invalid="ignore"):
+            share = float(np.nanmedian(near[a:b])) / m if np.isfinite(near[a:b]).any() else float("nan")
+        if not share < NOTCH_NEAR_SHARE:
+            out.append((g, m))
+    return out
 
 
 def _relief_farther(

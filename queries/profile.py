@@ -355,7 +355,8 @@ def _samples(
     """The signed offsets and reliefs of the nodes within ``band`` of ``piece`` (None: too few)."""
     points, x, y, z = nodes.points, nodes.x, nodes.y, nodes.z
     side = side_of(band)
-    idx = nodes.tree.query(piece, predicate="dwithin", distance=side[1])
+    # by node, not in the index's order: a fit's sums then do not depend on which nodes were indexed
+    idx = np.sort(nodes.tree.query(piece, predicate="dwithin", distance=side[1]))
     at = shapely.line_locate_point(piece, points[idx])
     inner = (at > 0.01) & (at < piece.length - 0.01)  # beside the piece, not beyond its ends
     idx, at = idx[inner], at[inner]

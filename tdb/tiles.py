@@ -9,6 +9,7 @@ a mask of the levels that keep it, one bit per level (:func:`level_bit`).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -123,6 +124,35 @@ class NodeLattice:
     def points(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """x, y, z of every node with a height."""
         jj, ii = np.nonzero(~np.isnan(self.z))
+        x = ((self.i0 + ii) * self.spacing).astype(np.float64)
+        return x, ((self.j0 + jj) * self.spacing).astype(np.float64), self.z[jj, ii]
+
+    def points_near(
+        self, boxes: Sequence[tuple[float, float, float, float]], margin: float
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`points` within ``margin`` m of any of ``boxes`` (x0, y0, x1, y1), in the same order
+        (and a few beyond, to the next node)."""
+        near = np.zeros(self.z.shape, bool)
+        rows, cols = self.z.shape
+        for x0, y0, x1, y1 in boxes:
+            i = np.clip(
+                [
+                    np.floor((x0 - margin) / self.spacing) - self.i0,
+                    np.ceil((x1 + margin) / self.spacing) - self.i0 + 1,
+                ],
+                0,
+                cols,
+            )
+            j = np.clip(
+                [
+                    np.floor((y0 - margin) / self.spacing) - self.j0,
+                    np.ceil((y1 + margin) / self.spacing) - self.j0 + 1,
+                ],
+                0,
+                rows,
+            )
+            near[int(j[0]) : int(j[1]), int(i[0]) : int(i[1])] = True
+        jj, ii = np.nonzero(near & ~np.isnan(self.z))
         x = ((self.i0 + ii) * self.spacing).astype(np.float64)
         return x, ((self.j0 + jj) * self.spacing).astype(np.float64), self.z[jj, ii]
 
