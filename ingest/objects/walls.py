@@ -13,6 +13,7 @@ square keeps its own angles.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -154,12 +155,38 @@ def _stretches(uv: NDArray[np.float64], resolution: float) -> list[_Stretch]:
         else:  # a bevel: its neighbours' lines meet without it
             first = chord[before] < chord[after]
             _join(spans, before if first else k, k if first else after)
+    _drop_cut_corners(spans, uv, kind_offset, resolution)
     out = []
     for span in spans:
         kind, offset = kind_offset(span)
         point, direction = _line(uv[np.union1d(span, span + 1)])
         out.append(_Stretch(kind, offset, point, direction, uv[span[0]]))
     return out
+
+
+def _drop_cut_corners(
+    spans: list[NDArray[np.intp]],
+    uv: NDArray[np.float64],
+    kind_offset: Callable[[NDArray[np.intp]], tuple[int, float]],
+    resolution: float,
+) -> None:
+    """Join into the next stretch each free stretch between two walls square to each other whose
+    outline keeps within ``resolution`` of those walls' lines: the simplification cut a corner the
+    outline turns (its vertex lay under ``resolution`` from the chord), and the walls meet there."""
+    k = 0
+    while len(spans) > 3 and k < len(spans):
+        n = len(spans)
+        before, after = kind_offset(spans[(k - 1) % n]), kind_offset(spans[(k + 1) % n])
+        kind = kind_offset(spans[k])[0]
+        if kind == FREE and {before[0], after[0]} == {ALONG, ACROSS}:
+            along, across = (before, after) if before[0] == ALONG else (after, before)
+            ring = uv[np.union1d(spans[k], spans[k] + 1)]
+            off = np.minimum(np.abs(ring[:, 1] - along[1]), np.abs(ring[:, 0] - across[1]))
+            if off.max() <= resolution:
+                _join(spans, k, (k + 1) % n)
+                k = 0
+                continue
+        k += 1
 
 
 def _join(spans: list[NDArray[np.intp]], k: int, j: int) -> None:
