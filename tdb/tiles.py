@@ -123,9 +123,7 @@ class NodeLattice:
 
     def points(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """x, y, z of every node with a height."""
-        jj, ii = np.nonzero(~np.isnan(self.z))
-        x = ((self.i0 + ii) * self.spacing).astype(np.float64)
-        return x, ((self.j0 + jj) * self.spacing).astype(np.float64), self.z[jj, ii]
+        return self._at_nodes(~np.isnan(self.z))
 
     def points_near(
         self, boxes: Sequence[tuple[float, float, float, float]], margin: float
@@ -152,7 +150,12 @@ class NodeLattice:
                 rows,
             )
             near[int(j[0]) : int(j[1]), int(i[0]) : int(i[1])] = True
-        jj, ii = np.nonzero(near & ~np.isnan(self.z))
+        return self._at_nodes(near & ~np.isnan(self.z))
+
+    def _at_nodes(
+        self, mask: NDArray[np.bool_]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        jj, ii = np.nonzero(mask)
         x = ((self.i0 + ii) * self.spacing).astype(np.float64)
         return x, ((self.j0 + jj) * self.spacing).astype(np.float64), self.z[jj, ii]
 
