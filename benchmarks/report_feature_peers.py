@@ -100,6 +100,14 @@ def feature_peers_section(
     ]
 
 
+def _fold_picks(held_out: dict[str, dict[str, Any]]) -> str:
+    """How many folds chose each setting, the most chosen first ("0.5 in 24, 0.25 in 1")."""
+    choices: dict[str, int] = {}
+    for v in held_out.values():
+        choices[v["setting"]] = choices.get(v["setting"], 0) + 1
+    return ", ".join(f"{s} in {n}" for s, n in sorted(choices.items(), key=lambda kv: -kv[1]))
+
+
 def spread_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> None:
     """The least spread of a ditch and a ridge, chosen by leave-one-scene-out."""
     if doc is None:
@@ -123,10 +131,7 @@ def spread_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) 
     out.append("")
     for name in doc["grid"]:
         d = doc[name]
-        choices: dict[str, int] = {}
-        for v in d["held_out"].values():
-            choices[v["setting"]] = choices.get(v["setting"], 0) + 1
-        picks = ", ".join(f"{s} in {n}" for s, n in sorted(choices.items(), key=lambda kv: -kv[1]))
+        picks = _fold_picks(d["held_out"])
         out.append(
             f"- {name}: chosen on all {d['tuned']}; without each scene {picks} of the folds; held out F1 "
             f"{d['held_out_f1']:.4f} (chosen on all: {d['means'][d['tuned']]['f1']:.4f})."
@@ -160,10 +165,7 @@ def notch_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) -
     for setting, r in d["means"].items():
         mark = " (chosen)" if setting == d["tuned"] else ""
         out.append(f"| {setting}{mark} | {_rpf(r)} | {_rpf(d['never_chosen_on'][setting])} |")
-    choices: dict[str, int] = {}
-    for v in d["held_out"].values():
-        choices[v["setting"]] = choices.get(v["setting"], 0) + 1
-    picks = ", ".join(f"{s} in {n}" for s, n in sorted(choices.items(), key=lambda kv: -kv[1]))
+    picks = _fold_picks(d["held_out"])
     out += [
         "",
         f"- Chosen on all {d['tuned']}; without each scene {picks} of the folds; held out F1 "

@@ -577,11 +577,7 @@ def _steep_sided(
     """The notch candidates whose relief read half as far off as their own keeps at least
     :data:`NOTCH_NEAR_SHARE` of it (median over their tiles; NaN is kept)."""
     tiles = np.concatenate([g for g, _ in found.notches])
-    ex, ey = found.ex[tiles], found.ey[tiles]
-    s = lattice.spacing
-    ez = lattice.at(np.rint(ex / s).astype(np.int64), np.rint(ey / s).astype(np.int64))
-    reach = REACH_TILES * level / 2
-    near = two_sided_relief(lattice, ex, ey, ez, measure=flt.measure, reach=reach, along=BREAK_LINES[code[tiles]])
+    near = _node_relief(lattice, found.ex[tiles], found.ey[tiles], code[tiles], flt, reach=REACH_TILES * level / 2)
     starts = np.cumsum([0] + [len(g) for g, _ in found.notches])
     out = []
     for (g, m), a, b in zip(found.notches, starts[:-1], starts[1:]):
@@ -606,9 +602,22 @@ def _relief_farther(
     unbounded = flt.max_spread is None and flt.min_spread is None
     if unbounded or not flt.linear or flt.measure is Measure.STEP or len(ex) == 0:
         return None
+    return _node_relief(lattice, ex, ey, code, flt, reach=SPREAD_READ * REACH_TILES * level)
+
+
+def _node_relief(
+    lattice: NodeLattice,
+    ex: NDArray[np.float64],
+    ey: NDArray[np.float64],
+    code: NDArray[np.uint8],
+    flt: Filter,
+    *,
+    reach: float,
+) -> NDArray[np.float64]:
+    """The relief of each tile's extreme node (``ex``, ``ey``) read ``reach`` m off, across its
+    tile's break line (``code``)."""
     s = lattice.spacing
     ez = lattice.at(np.rint(ex / s).astype(np.int64), np.rint(ey / s).astype(np.int64))
-    reach = SPREAD_READ * REACH_TILES * level
     return two_sided_relief(lattice, ex, ey, ez, measure=flt.measure, reach=reach, along=BREAK_LINES[code])
 
 

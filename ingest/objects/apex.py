@@ -93,7 +93,8 @@ def crown_shortfalls(
     if min(scales) <= 0:
         return np.full(n, law.curvature + law.depth)
     a, b = law.curvature / scales[0], law.depth / scales[1]
-    tall = top[measured][top[measured] > 0]
+    tall = top[measured]
+    tall = tall[tall > 0]
     if not len(tall) or a + b * float(np.mean(1.0 / np.sqrt(tall))) > MAX_SHARE:
         return np.zeros(n)
     return a * terms[0] + b * terms[1]
