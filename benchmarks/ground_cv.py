@@ -106,9 +106,23 @@ def family(site: str) -> str:
     return "isprs" if site.startswith("ISPRS") else "synthetic" if site.startswith("synthetic") else "real"
 
 
+def params_of(setting: dict[str, Any]) -> AutoParams:
+    """The default parameters with ``setting`` applied; ``hills.x`` names a field of the hills' shape."""
+    flat = {k: v for k, v in setting.items() if "." not in k}
+    hills = {k.split(".", 1)[1]: v for k, v in setting.items() if k.startswith("hills.")}
+    p = dataclasses.replace(AutoParams(), **flat)
+    return dataclasses.replace(p, hills=dataclasses.replace(p.hills, **hills)) if hills else p
+
+
+def default_setting(grid: dict[str, tuple[Any, ...]]) -> dict[str, Any]:
+    """The shipped values of ``grid``'s settings (:func:`params_of`'s names)."""
+    p = AutoParams()
+    return {k: getattr(p.hills, k.split(".", 1)[1]) if k.startswith("hills.") else getattr(p, k) for k in grid}
+
+
 def score_setting(setting: dict[str, Any]) -> dict[str, float]:
-    """Total error (%) of the default filter with ``setting`` on every sample."""
-    params = dataclasses.replace(AutoParams(), **setting)
+    """Total error (%) of the default filter with ``setting`` (:func:`params_of`) on every sample."""
+    params = params_of(setting)
     out = isprs_scores(params)
     for path in files():
         cloud = to_metres(read(path))
@@ -171,26 +185,24 @@ def cv_rows(
     ]
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--table", type=Path, help="reuse the scores of an earlier run's JSON (same grid)")
-    args = parser.parse_args()
-    settings = [dict(zip(GRID, values)) for values in itertools.product(*GRID.values())]
+def choose(grid: dict[str, tuple[Any, ...]], *, workers: int, table_from: Path | None = None) -> dict[str, Any]:
+    """Every setting of ``grid`` scored on every sample (or the scores of an earlier run's JSON,
+    ``table_from``, on the same grid), chosen by leave-one-site-out on ISPRS: the document saved."""
+    settings = [dict(zip(grid, values)) for values in itertools.product(*grid.values())]
     scored_at = None
-    if args.table:
+    if table_from:
         # the scores of an earlier run (they do not depend on the defaults): choose again only
-        earlier = json.loads(args.table.read_text())
+        earlier = json.loads(table_from.read_text())
         if [t["setting"] for t in earlier["table"]] != settings:
-            raise SystemExit(f"{args.table}: scored on another grid")
+            raise SystemExit(f"{table_from}: scored on another grid")
         table = [t["scores"] for t in earlier["table"]]
         scored_at = earlier.get("scored_at") or earlier.get("machine")
     else:
-        with ProcessPoolExecutor(args.workers) as pool:
+        with ProcessPoolExecutor(workers) as pool:
             table = list(pool.map(score_setting, settings))
     pairs = samples()
     tuned, held = cross_validate(table, pairs)
-    default = settings.index({k: getattr(AutoParams(), k) for k in GRID})
+    default = settings.index(default_setting(grid))
     rows = cv_rows(table, settings, pairs, default=default, tuned=tuned, held=held)
     for r in rows:
         print(
@@ -206,7 +218,7 @@ def main() -> None:
     print("tuned setting", settings[tuned], "default", settings[default])
     print(summary)
     doc = {
-        "grid": {k: list(v) for k, v in GRID.items()},
+        "grid": {k: list(v) for k, v in grid.items()},
         "tuned_setting": settings[tuned],
         "default_setting": settings[default],
         "rows": [dataclasses.asdict(r) for r in rows],
@@ -215,7 +227,15 @@ def main() -> None:
     }
     if scored_at:
         doc["scored_at"] = scored_at
-    print(save("ground_cv", doc))
+    return doc
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--table", type=Path, help="reuse the scores of an earlier run's JSON (same grid)")
+    args = parser.parse_args()
+    print(save("ground_cv", choose(GRID, workers=args.workers, table_from=args.table)))
 
 
 if __name__ == "__main__":

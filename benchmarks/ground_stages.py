@@ -31,6 +31,7 @@ from benchmarks.ground_cv import (
     cv_rows,
     family,
     isprs_scores,
+    params_of,
     samples,
     score_setting,
     site_means,
@@ -46,14 +47,6 @@ LIMITS: dict[str, tuple[float, ...]] = {
     "slope": (0.15, 0.1, 0.2),  # the terrain slope the opening tolerates
     "pit_depth": (2.0, 1.5, 3.0),  # m: a pit's least depth
 }
-
-
-def params_of(setting: dict[str, Any]) -> AutoParams:
-    """The default parameters with ``setting`` applied; ``hills.x`` names a field of the hills' shape."""
-    flat = {k: v for k, v in setting.items() if "." not in k}
-    hills = {k.split(".", 1)[1]: v for k, v in setting.items() if k.startswith("hills.")}
-    p = dataclasses.replace(AutoParams(), **flat)
-    return dataclasses.replace(p, hills=dataclasses.replace(p.hills, **hills)) if hills else p
 
 
 def _isprs_scores(setting: dict[str, Any]) -> dict[str, float]:

@@ -61,6 +61,7 @@ class AutoParams:
     envelope_points: float = 16.0  # points per cell of the lower envelope low outliers are judged on
     flat_rejoin: bool = True  # cells the opening took for objects rejoin the surface within threshold alone
     max_window: float = 16.0  # largest opening window radius (m)
+    unit_steps_from: float = 8.0  # window radius (m) from which the openings grow one cell at a time
     slope: float = 0.15  # terrain slope the opening tolerates (rise/run)
     threshold: float = 0.3  # height above the ground surface still ground on flat land (m) ...
     threshold_spacings: float = 0.2  # ... plus this much per metre of point spacing
@@ -148,7 +149,9 @@ def auto_ground(
     cells = CellSort.of(grid, pts)
     idx = cells.lowest()
     zmin = heights_of(idx, pts)
-    objects = progressive_opening(zmin, cell=p.cell, max_window=p.max_window, slope=p.slope)
+    objects = progressive_opening(
+        zmin, cell=p.cell, max_window=p.max_window, slope=p.slope, unit_steps_from=p.unit_steps_from
+    )
     pits = _pits(zmin, p)
     current = np.where(~objects & ~pits, idx, -1)
     at_points = grid.corner_sampler(pts[:, :2])

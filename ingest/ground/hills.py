@@ -9,7 +9,7 @@ of object cells (cells holding no ground point) is terrain where nearly every
 cell's lowest point lies below a cone rising from the nearest ground point,
 ``h <= rise + slope * d``, both on the group's rim and inside it, and the group is
 broad enough not to be a car or a shrub. A steeper group (under a cone of slope 1.5)
-is terrain too where a tenth of its rim cells lie within 1 m of the ground beside
+is terrain too where a twentieth of its rim cells lie within 1 m of the ground beside
 them: a slope or an embankment runs into the ground at its foot and its top, while a
 roof stands over the ground all round, however near the ground is.
 
@@ -49,7 +49,7 @@ class HillShape:
     steep_slope: float = 1.5
     steep_share: float = 0.9
     foot: float = 1.0
-    foot_share: float = 0.1
+    foot_share: float = 0.05
 
 
 def smooth_hills(
