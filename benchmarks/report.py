@@ -137,6 +137,30 @@ def ground_cv_section(out: list[str]) -> None:
         "best on the other sites (*held out*), beside the setting best on all sites (*tuned*) and the "
         f"shipped default (`python -m benchmarks.ground_cv`). Total error %. Machine: {_machine(doc)}.",
         "",
+    ]
+    _cv_grid(out, doc)
+
+
+def windows_cv_section(out: list[str]) -> None:
+    doc = _load("windows_cv")
+    if not doc:
+        return
+    out += [
+        "## The opening's windows and the hills' foot by leave-one-site-out",
+        "",
+        "`unit_steps_from`: the window radius (m) from which the openings grow one cell at a time (4: "
+        "every radius, as SMRF; inf: doubling to the largest window, 1, 2, 3, 4, 8, 16 m). "
+        "`hills.foot_share`: the share of a steep hill's rim that must lie within 1 m of the ground "
+        "beside it. Chosen together, scored as above "
+        f"(`python -m benchmarks.windows_cv`). Total error %. Machine: {_machine(doc)}.",
+        "",
+    ]
+    _cv_grid(out, doc)
+
+
+def _cv_grid(out: list[str], doc: dict[str, Any]) -> None:
+    """A cross-validated grid's settings, its table per sample and its means per family."""
+    out += [
         "Grid: "
         + "; ".join(f"`{k}` {', '.join(map(str, v))}" for k, v in doc["grid"].items())
         + f". Tuned: `{doc['tuned_setting']}`; default: `{doc['default_setting']}`.",
@@ -979,6 +1003,7 @@ def main() -> None:
         ground_section,
         ground_real_section,
         ground_cv_section,
+        windows_cv_section,
         ground_stages_section,
         _roofs_section,
         paper_filters_cv_section,

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 from ingest.ground import classify_ground, low_outliers, paper_ground
 from ingest.ground.evaluate import accuracy
+from ingest.ground.morphology import window_radii
 from ingest.ground.sohn import SohnParams, _facet_t, description_length, initial_corners, p_buf, p_on
 from ingest.readers import read
 from ingest.synth import make_scene, sample
@@ -376,3 +377,32 @@ def test_contour_elasticity_is_the_four_neighbours_arctans(rows, cols, seed):
     np.testing.assert_allclose(
         relax_on(target, net, whole, 0.7, 1.0, params), relax(target, net, 0.7, 1.0, params), atol=1e-9
     )
+
+
+def _slope_to_a_cliff(seed: int, *, rise: float = 0.25, drop: float = 12.0) -> tuple[np.ndarray, np.ndarray]:
+    """Ground rising by ``rise`` towards a cliff's edge at y = 60 m, a quarry floor ``drop`` m below
+    beyond it, and a 6 m house on the slope: the points, and which are ground."""
+    rng = np.random.default_rng(seed)
+    x, y = rng.uniform(0, 120, 24_000), rng.uniform(0, 100, 24_000)
+    z = np.where(y < 60, rise * y, rise * 60 - drop) + rng.normal(0, 0.03, len(x))
+    house = (np.abs(x - 30) < 6) & (np.abs(y - 20) < 6)
+    z[house] = rise * 14 + 6
+    return np.c_[x, y, z], ~house
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_ground_rising_to_a_cliffs_edge_stays_ground(seed):
+    # Between windows of 8 and 16 m in one step the slope's last 15 m were lowered by more than
+    # the step allows, and taken for an object; grown one cell at a time, they are not.
+    xyz, truth = _slope_to_a_cliff(seed)
+    ground = classify_ground(xyz)
+    top = truth & (xyz[:, 1] > 40) & (xyz[:, 1] < 60)
+    assert ground[top].mean() > 0.6
+    assert not ground[~truth].any()
+    assert ground[truth & (xyz[:, 1] < 40)].all()
+
+
+def test_the_windows_double_then_grow_by_one_cell():
+    assert list(window_radii(16, 1.0, unit_steps_from=8)) == [1, 2, 3, 4, 8, 9, 10, 11, 12, 13, 14, 15, 16]
+    assert list(window_radii(16, 1.0)) == [1, 2, 3, 4, 8, 16]
+    assert list(window_radii(16, 2.0, unit_steps_from=8)) == [1, 2, 3, 4, 5, 6, 7, 8]
