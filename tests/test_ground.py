@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ingest.ground import classify_ground, low_outliers, paper_ground
+from ingest.ground.auto import auto_ground
 from ingest.ground.evaluate import accuracy
 from ingest.ground.morphology import window_radii
 from ingest.ground.sohn import SohnParams, _facet_t, description_length, initial_corners, p_buf, p_on
@@ -406,3 +407,22 @@ def test_the_windows_double_then_grow_by_one_cell():
     assert list(window_radii(16, 1.0, unit_steps_from=8)) == [1, 2, 3, 4, 8, 9, 10, 11, 12, 13, 14, 15, 16]
     assert list(window_radii(16, 1.0)) == [1, 2, 3, 4, 8, 16]
     assert list(window_radii(16, 2.0, unit_steps_from=8)) == [1, 2, 3, 4, 5, 6, 7, 8]
+
+
+def _hall(seed: int, floor: float) -> np.ndarray:
+    """A 60 m hall 8 m high on level ground, 80 m east of :func:`_slope_to_a_cliff`'s scene."""
+    rng = np.random.default_rng(seed + 100)
+    x, y = rng.uniform(200, 320, 24_000), rng.uniform(0, 100, 24_000)
+    roof = (np.abs(x - 260) < 30) & (np.abs(y - 50) < 30)
+    return np.c_[x, y, floor + np.where(roof, 8.0, 0.0) + rng.normal(0, 0.03, len(x))]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_what_a_stage_finds_far_off_changes_no_label_here(seed):
+    # The roofs stage finds the hall; the slope's labels must not hang on it (a block and the whole
+    # survey must agree): the passes after a stage once ran only where it found something.
+    xyz, _ = _slope_to_a_cliff(seed)
+    both = np.r_[xyz, _hall(seed, xyz[:, 2].min())]
+    box = (0.0, 0.0, 320.0, 100.0)
+    alone = auto_ground(xyz, density=2.0, extent=box)
+    assert np.array_equal(alone, auto_ground(both, density=2.0, extent=box)[: len(xyz)])

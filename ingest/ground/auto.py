@@ -181,24 +181,23 @@ def auto_ground(
         # survey after different passes.
         if passes > 0 and not np.array_equal(before, current):
             continue
-        found = np.zeros(grid.shape, bool)
-        while stages and not found.any():
-            stage = stages.pop(0)
-            if stage is GroundStage.ROOFS:
-                on_roof = raised_roofs(pts, is_ground, cell=group_cell, shape=p.roofs)
-                # roof points that were no cell's lowest change no cell, so no pass may follow
-                is_ground &= ~on_roof
-                found = (current >= 0) & on_roof[np.maximum(current, 0)]
-                current = np.where(found, -1, current)
-            else:
-                found = (
-                    _earthworks(grid, surface, zmin, idx, current, objects & ~pits, p)
-                    if stage is GroundStage.EARTHWORKS
-                    else _hills(grid, pts, is_ground, group_cell, p)
-                )
-                current = np.where(found, idx, current)
-        if not found.any():
+        if not stages:
             break
+        # Every stage is followed by its passes, whatever it found: where the ground still creeps up
+        # a flank, one pass more moves it, and a count that hung on a stage finding something
+        # anywhere in the survey ended a block and the whole survey after different passes.
+        stage = stages.pop(0)
+        if stage is GroundStage.ROOFS:
+            on_roof = raised_roofs(pts, is_ground, cell=group_cell, shape=p.roofs)
+            is_ground &= ~on_roof
+            current = np.where((current >= 0) & on_roof[np.maximum(current, 0)], -1, current)
+        else:
+            found = (
+                _earthworks(grid, surface, zmin, idx, current, objects & ~pits, p)
+                if stage is GroundStage.EARTHWORKS
+                else _hills(grid, pts, is_ground, group_cell, p)
+            )
+            current = np.where(found, idx, current)
         passes = p.stage_passes
     if GroundStage.REJOIN not in p.skip:
         back, h_back = _rejoined(grid, xyz[outlier], surface, slope_map, threshold, p)
