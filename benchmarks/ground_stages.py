@@ -36,7 +36,6 @@ from benchmarks.ground_cv import (
     score_setting,
     site_means,
 )
-from ingest.ground.auto import AutoParams
 from tdb.options import GroundStage
 
 # Each a physical quantity, on a coarse grid around the default (the default first).
