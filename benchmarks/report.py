@@ -154,8 +154,23 @@ def windows_cv_section(out: list[str]) -> None:
         "beside it. Chosen together, scored as above "
         f"(`python -m benchmarks.windows_cv`). Total error %. Machine: {_machine(doc)}.",
         "",
+        "| setting | ISPRS | real files | synthetic |",
+        "|---|---|---|---|",
     ]
+    for row in doc["table"]:
+        fams: dict[str, list[float]] = {"isprs": [], "real": [], "synthetic": []}
+        for sample, v in row["scores"].items():
+            fams[_sample_family(sample)].append(v)
+        setting = ", ".join(f"{k} {v}" for k, v in row["setting"].items())
+        out.append(f"| {setting} | " + " | ".join(f"{sum(v) / len(v):.3f}" for v in fams.values()) + " |")
+    out.append("")
     _cv_grid(out, doc)
+
+
+def _sample_family(sample: str) -> str:
+    """The family a cross-validation table's sample belongs to (its keys: ``samp11``, a real file's
+    name, ``synthetic 1``)."""
+    return "isprs" if sample.startswith("samp") else "synthetic" if sample.startswith("synthetic") else "real"
 
 
 def _cv_grid(out: list[str], doc: dict[str, Any]) -> None:
