@@ -63,9 +63,9 @@ class AutoParams:
     max_window: float = 16.0  # largest opening window radius (m)
     unit_steps_from: float = 8.0  # window radius (m) from which the openings grow one cell at a time
     slope: float = 0.15  # terrain slope the opening tolerates (rise/run)
-    threshold: float = 0.2  # height above the ground surface still ground on flat land (m) ...
+    threshold: float = 0.3  # height above the ground surface still ground on flat land (m) ...
     threshold_spacings: float = 0.2  # ... plus this much per metre of point spacing
-    slope_scale: float = 1.25  # extra threshold per unit of local surface slope
+    slope_scale: float = 1.0  # extra threshold per unit of local surface slope
     below: float = 2.0  # points this far below the surface are not ground (m)
     # widest hole (m) the surface bridges by straight lines; a wider one takes the nearest
     # ground, so that what a point is judged against lies within this reach of it
