@@ -230,12 +230,17 @@ def choose(grid: dict[str, tuple[Any, ...]], *, workers: int, table_from: Path |
     return doc
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
+def run_grid(name: str, grid: dict[str, tuple[Any, ...]], description: str | None) -> None:
+    """The command line of a cross-validated grid: :func:`choose` it, save it as ``name``."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--table", type=Path, help="reuse the scores of an earlier run's JSON (same grid)")
     args = parser.parse_args()
-    print(save("ground_cv", choose(GRID, workers=args.workers, table_from=args.table)))
+    print(save(name, choose(grid, workers=args.workers, table_from=args.table)))
+
+
+def main() -> None:
+    run_grid("ground_cv", GRID, __doc__)
 
 
 if __name__ == "__main__":

@@ -12,13 +12,10 @@ hills stage smaller groups with less of their rim at the ground's level. Scored 
 
 from __future__ import annotations
 
-import argparse
 import math
-from pathlib import Path
 from typing import Any
 
-from benchmarks.common import save
-from benchmarks.ground_cv import choose
+from benchmarks.ground_cv import run_grid
 
 GRID: dict[str, tuple[Any, ...]] = {
     "unit_steps_from": (4.0, 8.0, math.inf),  # m
@@ -27,11 +24,7 @@ GRID: dict[str, tuple[Any, ...]] = {
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--table", type=Path, help="reuse the scores of an earlier run's JSON (same grid)")
-    args = parser.parse_args()
-    print(save("windows_cv", choose(GRID, workers=args.workers, table_from=args.table)))
+    run_grid("windows_cv", GRID, __doc__)
 
 
 if __name__ == "__main__":
