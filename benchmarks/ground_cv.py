@@ -106,10 +106,13 @@ def family(site: str) -> str:
     return "isprs" if site.startswith("ISPRS") else "synthetic" if site.startswith("synthetic") else "real"
 
 
+HILLS = "hills."  # a setting's prefix that names a field of the hills' shape
+
+
 def params_of(setting: dict[str, Any]) -> AutoParams:
     """The default parameters with ``setting`` applied; ``hills.x`` names a field of the hills' shape."""
-    flat = {k: v for k, v in setting.items() if "." not in k}
-    hills = {k.split(".", 1)[1]: v for k, v in setting.items() if k.startswith("hills.")}
+    flat = {k: v for k, v in setting.items() if not k.startswith(HILLS)}
+    hills = {k.removeprefix(HILLS): v for k, v in setting.items() if k.startswith(HILLS)}
     p = dataclasses.replace(AutoParams(), **flat)
     return dataclasses.replace(p, hills=dataclasses.replace(p.hills, **hills)) if hills else p
 
@@ -117,7 +120,7 @@ def params_of(setting: dict[str, Any]) -> AutoParams:
 def default_setting(grid: dict[str, tuple[Any, ...]]) -> dict[str, Any]:
     """The shipped values of ``grid``'s settings (:func:`params_of`'s names)."""
     p = AutoParams()
-    return {k: getattr(p.hills, k.split(".", 1)[1]) if k.startswith("hills.") else getattr(p, k) for k in grid}
+    return {k: getattr(p.hills, k.removeprefix(HILLS)) if k.startswith(HILLS) else getattr(p, k) for k in grid}
 
 
 def score_setting(setting: dict[str, Any]) -> dict[str, float]:

@@ -71,7 +71,7 @@ class AutoParams:
     # ground, so that what a point is judged against lies within this reach of it
     max_bridge: float = 64.0
     refinements: int = 8  # passes after the first, fewer only where one changes nothing
-    stage_passes: int = 1  # refinement passes after a stage below hands over more ground
+    stage_passes: int = 1  # refinement passes after each stage below, whatever it found
     pit_window: float = 8.0  # widest low-outlier cluster (m, radius)
     pit_slope: float = 3.0  # pit walls steeper than this, beyond pit_depth, are not terrain
     pit_depth: float = 2.0
