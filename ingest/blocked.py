@@ -294,7 +294,7 @@ def _scatter(
             rec = shared(i, chunk)
             if box is None:
                 _check_in_header_bounds(rec, f, modelled)
-            use = ~excluded(rec["c"], exclude)
+            use = ~excluded(rec["c"], exclude) & ~rec["w"]
             seen += int(use.sum())
             cells.append(np.unique(tile_key(*(np.floor(rec[a][use] / DENSITY_BLOCK) for a in "xy"))))
             squares.update(square_counts(rec["x"][use], rec["y"][use]))
@@ -538,7 +538,7 @@ def _one_block(blk: Block, rec: NDArray[Any], o: IngestOptions, crs: Any, source
         reduction=reduction,
         points_read=int(own.sum()),
         ground=int((s.ground & points_in_box(s.cloud.xyz[:, 0], s.cloud.xyz[:, 1], blk.core, closed=False)).sum()),
-        excluded=int((excluded(cloud.classification, o.exclude) & own).sum()),
+        excluded=int((cloud.excluded(o.exclude) & own).sum()),
         noise=s.noise,
         flat_threshold=s.flat_threshold,
         evidence=s.evidence.take(

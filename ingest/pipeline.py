@@ -21,7 +21,7 @@ from ingest.objects import Objects, find_objects
 from ingest.pyramid import TerrainModel, build
 from ingest.readers import read
 from tdb.bbox import Box, box_area, points_in_box
-from tdb.classes import NOISE, excluded, parse_classes, user_classes
+from tdb.classes import NOISE, parse_classes, user_classes
 from tdb.cloud import PointCloud
 from tdb.database import Database, Version, VersionInfo, check_version_name
 from tdb.errors import InputError, Remedy, VersionExistsError
@@ -141,7 +141,7 @@ def survey(
     noise, quiet = ground_noises(gxyz, (50.0, QUIET), tree=tree)
     threshold = o.flat_threshold
     if threshold is None:
-        seen = metric.xyz[~excluded(metric.classification, o.exclude)]
+        seen = metric.xyz[~metric.excluded(o.exclude)]
         threshold = pilot_threshold(gxyz, fullest_square(square_counts(seen[:, 0], seen[:, 1])))
     report("categories and reduction", 0, 1)
     model = build(dtm, flat_threshold=threshold, n=SUBGRID, measure=measure)
@@ -149,9 +149,7 @@ def survey(
     spacing = quantised(point_spacing(metric.xyz[:, :2]))
     evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm, noise=quiet, tree=tree)
     objects = (
-        find_objects(metric, ground, dtm, progress=report, skip=excluded(metric.classification, o.exclude))
-        if o.objects
-        else None
+        find_objects(metric, ground, dtm, progress=report, skip=metric.excluded(o.exclude)) if o.objects else None
     )
     return Survey(metric, ground, dtm, noise, threshold, model, evidence, objects)
 
@@ -192,7 +190,7 @@ def ingest(
         reduction=m.stats,
         points=len(cloud),
         ground_points=int(result.ground.sum()),
-        excluded_points=int(excluded(cloud.classification, o.exclude).sum()),
+        excluded_points=int(cloud.excluded(o.exclude).sum()),
         kept_user_classes={int(c): n for c, n in user_classes(cloud.classification, o.exclude).items()},
         noise_m=round(result.noise, 4),
         flat_threshold_m=round(result.flat_threshold, 3),

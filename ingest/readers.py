@@ -7,6 +7,7 @@ preallocated arrays, so memory is what is kept, not what is decoded.
 
 from __future__ import annotations
 
+import copy
 import os
 import warnings
 from collections.abc import Iterator
@@ -78,8 +79,8 @@ def read(
 Box = tuple[float, float, float, float]
 RANGE_PAD = 1.0  # m around a box its COPC nodes are found in; the box itself is applied after
 
-RECORD = np.dtype([("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("c", "u1"), ("r", "u1"), ("n", "u1")])
-"""One LAS point as tdb models it: coordinates, class, return number, number of returns."""
+RECORD = np.dtype([("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("c", "u1"), ("r", "u1"), ("n", "u1"), ("w", "?")])
+"""One LAS point as tdb models it: coordinates, class, return number, number of returns, withheld."""
 
 
 def iter_records(
@@ -132,6 +133,7 @@ def _record(points: Any) -> NDArray[Any]:
     rec = np.empty(len(points), RECORD)
     rec["x"], rec["y"], rec["z"] = points.x, points.y, points.z
     rec["c"], rec["r"], rec["n"] = points.classification, points.return_number, points.number_of_returns
+    rec["w"] = points.withheld
     return rec
 
 
@@ -143,9 +145,16 @@ def from_records(rec: NDArray[Any], *, crs: Any, source: str) -> PointCloud:
         classification=rec["c"].astype(np.uint8),
         return_number=rn,
         number_of_returns=np.maximum(rec["n"], rn).astype(np.uint8),
+        withheld=_flagged(rec["w"]),
         crs=crs,
         source=source,
     )
+
+
+def _flagged(flags: NDArray[Any]) -> NDArray[np.bool_] | None:
+    """The withheld flags as a mask, or None where no point is flagged (the common case)."""
+    mask = np.asarray(flags, bool)
+    return mask if mask.any() else None
 
 
 def in_box(rec: NDArray[Any], box: Box) -> NDArray[np.bool_]:
@@ -203,6 +212,7 @@ def _read_las(path: Path, *, chunk_size: int) -> PointCloud:
         cls = np.empty(n, np.uint8)
         rn = np.empty(n, np.uint8)
         nr = np.empty(n, np.uint8)
+        withheld = np.empty(n, bool)
         inten = np.empty(n, np.uint16) if "intensity" in dims else None
         at = 0
         try:
@@ -218,6 +228,7 @@ def _read_las(path: Path, *, chunk_size: int) -> PointCloud:
                 cls[at:stop] = np.asarray(chunk.classification[:take])
                 rn[at:stop] = np.asarray(chunk.return_number[:take])
                 nr[at:stop] = np.asarray(chunk.number_of_returns[:take])
+                withheld[at:stop] = np.asarray(chunk.withheld[:take])
                 if inten is not None:
                     inten[at:stop] = np.asarray(chunk.intensity[:take])
                 at = stop
@@ -241,6 +252,7 @@ def _read_las(path: Path, *, chunk_size: int) -> PointCloud:
         return_number=rn,
         number_of_returns=nr,
         intensity=inten,
+        withheld=_flagged(withheld),
         crs=crs,
         source=str(path),
         meta={"las_version": str(header.version), "point_format": int(header.point_format.id)},
@@ -308,6 +320,52 @@ def _first_line(exc: Exception) -> str:
     return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
 
 
+def write_classified(path: str | os.PathLike[str], cloud: PointCloud, classification: NDArray[Any]) -> None:
+    """Write ``cloud`` with new classes, in its input order.
+
+    Where ``cloud`` was read from a LAS/LAZ file, that file's points are copied record by
+    record, chunk by chunk, with only their class changed: times, colours, scan angles, flags,
+    extra bytes, the point format and the header's records stay as the producer wrote them
+    (every ASPRS class tdb writes fits the 5 bits of the oldest formats). A CRS given for a
+    file that names none, or in place of its own, is written into the header. Other clouds are
+    written as :func:`write_las` writes them. The file is moved into place once whole.
+
+    Raises
+    ------
+    TdbIOError
+        If the source file no longer holds the cloud's points.
+    """
+    source = Path(cloud.source)
+    codes = np.asarray(classification, np.uint8)
+    if "point_format" not in cloud.meta or not source.is_file():
+        write_las(path, cloud, classification=codes)
+        return
+    p = Path(path)
+    with laspy.open(source) as reader:
+        header = _output_header(reader.header, cloud.crs)
+        if reader.header.point_count != len(codes):
+            raise TdbIOError(f"{source}: the file changed while it was classified")
+        with (
+            atomic_path(p) as tmp,
+            laspy.open(tmp, mode="w", header=header, do_compress=p.suffix.lower() == ".laz") as writer,
+        ):
+            at = 0
+            for chunk in reader.chunk_iterator(1_000_000):
+                chunk.classification = codes[at : at + len(chunk)]
+                writer.write_points(chunk)
+                at += len(chunk)
+
+
+def _output_header(source: laspy.LasHeader, crs: Any) -> laspy.LasHeader:
+    """The source's header for a copy of its points, with ``crs``."""
+    header = copy.deepcopy(source)
+    # the octree's index records say where a COPC file's pages lie; the copy is a plain file
+    header.vlrs[:] = [v for v in header.vlrs if v.user_id != "copc"]
+    if crs is not None and source.parse_crs() != crs:
+        header.add_crs(crs)
+    return header
+
+
 def write_las(
     path: str | os.PathLike[str],
     cloud: PointCloud,
@@ -334,5 +392,7 @@ def write_las(
     las.number_of_returns = cloud.number_of_returns
     if cloud.intensity is not None:
         las.intensity = cloud.intensity
+    if cloud.withheld is not None:
+        las.withheld = cloud.withheld
     with atomic_path(p) as tmp:
         las.write(str(tmp), do_compress=p.suffix.lower() == ".laz")

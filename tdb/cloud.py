@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -9,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tdb.bbox import column_range
+from tdb.classes import excluded
 from tdb.crs import as_crs
 from tdb.errors import DegenerateInputError, InputError
 
@@ -42,6 +44,8 @@ class PointCloud:
     classification : (N,) uint8 ASPRS class codes (0 where unknown).
     return_number, number_of_returns : (N,) uint8 (1 where unknown).
     intensity : (N,) uint16 or None where the source has none.
+    withheld : (N,) bool, the points the source flags withheld (LAS: to be considered deleted),
+        or None where it flags none.
     crs : a :class:`pyproj.CRS` or None where the source names none.
     source : where the points came from, for messages.
     """
@@ -51,6 +55,7 @@ class PointCloud:
     return_number: NDArray[np.uint8]
     number_of_returns: NDArray[np.uint8]
     intensity: NDArray[np.uint16] | None = None
+    withheld: NDArray[np.bool_] | None = None
     crs: Any = None
     source: str = "<array>"
     meta: dict[str, Any] = field(default_factory=dict, compare=False)
@@ -59,7 +64,7 @@ class PointCloud:
         n = len(self.xyz)
         if self.xyz.ndim != 2 or self.xyz.shape[1] != 3:
             raise InputError(f"{self.source}: xyz must have shape (N, 3), got {self.xyz.shape}")
-        for name in ("classification", "return_number", "number_of_returns", "intensity"):
+        for name in ("classification", "return_number", "number_of_returns", "intensity", "withheld"):
             arr = getattr(self, name)
             if arr is not None and len(arr) != n:
                 raise InputError(f"{self.source}: {name} has {len(arr)} values for {n} points")
@@ -94,7 +99,14 @@ class PointCloud:
             return_number=self.return_number[index],
             number_of_returns=self.number_of_returns[index],
             intensity=None if self.intensity is None else self.intensity[index],
+            withheld=None if self.withheld is None else self.withheld[index],
         )
+
+    def excluded(self, classes: Iterable[int]) -> NDArray[np.bool_]:
+        """Mask of the points no model is made from: those of ``classes`` and those the source
+        flags withheld."""
+        out = excluded(self.classification, classes)
+        return out if self.withheld is None else out | self.withheld
 
 
 def from_arrays(  # noqa: PLR0913 (one argument per field of a PointCloud)

@@ -36,7 +36,7 @@ class VersionStats:
     reduction: ReductionStats
     points: int = 0
     ground_points: int = 0
-    excluded_points: int = 0
+    excluded_points: int = 0  # of the excluded classes, or flagged withheld
     kept_user_classes: dict[int, int] = field(default_factory=dict)  # points of producer classes 64–255
     noise_m: float | None = None  # the ground's measured vertical noise
     flat_threshold_m: float | None = None

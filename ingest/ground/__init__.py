@@ -16,7 +16,7 @@ from ingest.ground.outliers import deep_pits, low_outliers, point_density
 from ingest.ground.sohn import SohnParams, sohn_dowman
 from ingest.ground.tiling import by_tiles
 from tdb.bbox import box_area
-from tdb.classes import NOISE, excluded
+from tdb.classes import NOISE
 from tdb.cloud import GROUND, PointCloud, check_spread, from_arrays
 from tdb.errors import InputError
 from tdb.options import GroundMethod, parse
@@ -78,7 +78,7 @@ def classify_ground(
     """
     m = parse(GroundMethod, method)
     cloud = points if isinstance(points, PointCloud) else from_arrays(*np.asarray(points, float).T, validate=False)
-    drop = excluded(cloud.classification, exclude)
+    drop = cloud.excluded(exclude)
     if not drop.any():
         check_spread(cloud)
         return _fitting(cloud, m, progress, density, extent)

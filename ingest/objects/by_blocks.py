@@ -24,7 +24,6 @@ from ingest.ground import classify_ground
 from ingest.ground.outliers import point_density
 from ingest.objects.find import ObjectParams, find_objects, survey_objects
 from tdb.bbox import Box, box_area
-from tdb.classes import excluded
 from tdb.cloud import GROUND, OTHER, PointCloud
 from tdb.objects import Building, Tree
 from tdb.options import GroundMethod
@@ -60,7 +59,7 @@ def objects_of(
         whole = survey_objects(cloud, method=method, exclude=exclude, params=params, progress=progress)
         return FoundObjects(whole.classes, whole.trees, whole.buildings)
     ground = classify_ground(cloud, method=method, progress=progress, exclude=exclude)
-    seen = ~excluded(cloud.classification, exclude)
+    seen = ~cloud.excluded(exclude)
     density = point_density(cloud.xyz[seen, :2])
     return objects_by_blocks(
         cloud, ground, density=density, survey=survey, exclude=exclude, params=params, progress=progress
@@ -84,7 +83,7 @@ def objects_by_blocks(
     report = or_silent(progress)
     lattice = BlockLattice.over(survey, density=density)
     groups = list(lattice.groups(cloud.x, cloud.y))
-    skip = excluded(cloud.classification, exclude)
+    skip = cloud.excluded(exclude)
     classes = np.where(skip, cloud.classification, np.where(ground, GROUND, OTHER)).astype(np.uint8)
     trees: list[Tree] = []
     buildings: list[Building] = []

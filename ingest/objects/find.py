@@ -14,7 +14,7 @@ from ingest.objects.buildings import FootprintParams, find_buildings
 from ingest.objects.cover import Cover, CoverParams, classify_cover
 from ingest.objects.trees import TreeParams, find_trees
 from tdb.bbox import box_area
-from tdb.classes import NOISE, excluded
+from tdb.classes import NOISE
 from tdb.cloud import PointCloud
 from tdb.objects import Building, Tree
 from tdb.options import GroundMethod
@@ -92,6 +92,4 @@ def survey_objects(
     ground = classify_ground(cloud, method=method, progress=report, exclude=exclude)
     report("dense model", 0, 1)
     dtm = dense_model(cloud.xyz[ground], resolution=DEFAULT_RESOLUTION, crs=cloud.crs)
-    return find_objects(
-        cloud, ground, dtm, params=params, progress=report, skip=excluded(cloud.classification, exclude)
-    )
+    return find_objects(cloud, ground, dtm, params=params, progress=report, skip=cloud.excluded(exclude))

@@ -48,7 +48,7 @@ def command(
     import numpy as np
 
     from ingest.objects import objects_of
-    from ingest.readers import read, write_las
+    from ingest.readers import read, write_classified
     from tdb.atomic import GEOPACKAGE, POINTS, check_destination
     from tdb.cli.progress import Bars
     from tdb.cloud import CLASS_NAMES
@@ -64,7 +64,7 @@ def command(
         found = objects_of(metric, method=method, exclude=exclude, progress=bars)
     counts = np.bincount(found.classes, minlength=max(CLASS_NAMES) + 1)
     click.echo(", ".join(f"{counts[k]:,} {name}" for k, name in CLASS_NAMES.items()))
-    write_las(out, raw, classification=found.classes)
+    write_classified(out, raw, found.classes)
     click.echo(f"wrote {out}")
     if buildings:
         write_features(buildings, {"buildings": building_features(found.buildings)}, crs=metric.crs)

@@ -51,7 +51,7 @@ def command(
 
     from ingest.dtm import dense_model
     from ingest.ground import classify_ground
-    from ingest.readers import read, write_las
+    from ingest.readers import read, write_classified
     from tdb.atomic import GEOTIFF, POINTS, check_destination
     from tdb.cli.progress import Bars
     from tdb.units import to_metres
@@ -66,12 +66,10 @@ def command(
         ground = classify_ground(metric, method=method, progress=bars, exclude=exclude)
     click.echo(f"{int(ground.sum()):,} of {len(raw):,} points are ground ({100 * ground.mean():.1f} %)")
     if out:
-        from tdb.classes import excluded
-
         labels_out = np.where(ground, 2, 1).astype(np.uint8)
-        kept = excluded(raw.classification, exclude)
+        kept = raw.excluded(exclude)
         labels_out[kept] = raw.classification[kept]
-        write_las(out, raw, classification=labels_out)
+        write_classified(out, raw, labels_out)
         click.echo(f"wrote {out}")
     if dtm:
         from tdb.geotiff import write_geotiff

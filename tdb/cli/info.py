@@ -99,7 +99,8 @@ def _database_info(path: Path | str, as_json: bool) -> None:
         click.echo(f"    trees {objects[v.name][0]:,}, buildings {objects[v.name][1]:,}")
         if "exclude_classes" in v.params:  # versions from before the option have no record
             classes = ",".join(map(str, v.params["exclude_classes"])) or "none"
-            click.echo(f"    excluded classes {classes}: {s.excluded_points:,} of {s.points:,} points")
+            left_out = f"{s.excluded_points:,} of {s.points:,} points"
+            click.echo(f"    excluded (classes {classes}, or withheld): {left_out}")
         twice = v.params.get("overlap_points_dropped")
         if twice:
             click.echo(f"    points overlapping tiles held twice, kept once: {twice:,}")

@@ -104,7 +104,7 @@ def exclude_option(func: F) -> F:
         show_default=True,
         callback=_classes,
         help="Classes of points that are never ground (7,18: ASPRS noise; add 65 for IGN LiDAR HD artefacts); "
-        "'none' keeps all.",
+        "'none' keeps all. Points the file flags withheld are left out whatever their class.",
     )(func)
 
 
