@@ -101,3 +101,16 @@ def test_the_command_line_ingests_a_region(copc_file, tmp_path):
     assert out.exit_code == 0, out.output
     v = tdb.open(tmp_path / "c.tdb").version("v")
     assert v.stats.bounds[2] - v.stats.bounds[0] <= 64 + 32
+
+
+def test_a_classified_copy_of_a_copc_file_is_a_plain_laz_of_the_same_points(copc_file, tmp_path):
+    from ingest.readers import is_copc, write_classified
+
+    cloud = read(copc_file)
+    classes = np.where(np.arange(len(cloud)) % 2 == 0, 2, 5).astype(np.uint8)
+    out = tmp_path / "classified.laz"
+    write_classified(out, cloud, classes)
+    with laspy.open(out) as reader:
+        assert not is_copc(reader.header)  # its index would point at pages the copy moved
+    back = read(out)
+    assert np.array_equal(back.xyz, cloud.xyz) and np.array_equal(back.classification, classes)
