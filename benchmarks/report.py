@@ -891,7 +891,10 @@ def epochs_section(out: list[str]) -> None:
         sh = r["shift"]
         found = "—" if sh["dz"] is None else f"{sh['dx']:+.3f}, {sh['dy']:+.3f}, {sh['dz']:+.3f}"
         applied = ", ".join(k for k in ("horizontal", "vertical") if sh[f"{k}_applied"]) or "none"
-        label = "auto, the 2019 survey 0.40 m lower" if method == "datum" else method
+        label = {
+            "datum": "auto, the 2019 survey 0.40 m lower",
+            "sparse": f"auto, the 2019 survey thinned to {r.get('points', 0):,} returns and 0.40 m lower",
+        }.get(method, method)
         seconds = f"{r['coregister_s']:.2f}" if "coregister_s" in r else "—"
         out.append(
             f"| {label} | {found} | {applied} | **{r['stable_reported_pct']:.1f} %** of {r['stable_cells']:,} "
@@ -907,6 +910,15 @@ def epochs_section(out: list[str]) -> None:
                 "park that we hold back): its largest region covers "
                 f"{100 * datum['largest_region_share_of_extent']:.1f} % of the site's extent "
                 f"({datum['largest_region_m2']:,.0f} m²; no region may span the site)."
+            )
+        sparse = doc["providers"].get("sparse")
+        if sparse:
+            out.append(
+                f"Thinned as well, to the held-back survey's {sparse['points']:,} returns (judged against the "
+                "providers' classes of the returns kept), its largest region covers "
+                f"{100 * sparse['largest_region_share_of_extent']:.1f} % of the site's extent; against the whole "
+                f"2019 survey, the same ground, it reports {sparse['same_ground_reported_m2']:,.0f} m² in "
+                f"{sparse['same_ground_regions']} regions, all of them false."
             )
         out.append("")
     out += [
