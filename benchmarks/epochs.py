@@ -86,14 +86,15 @@ LATER_POINTS = 81_000  # the later survey of the park we hold back holds this ma
 def sparse_datum(db: tdb.Database, clouds: dict[str, PointCloud]) -> dict[str, Any]:
     """The 2019 survey thinned to the held-back later survey's points (returns drawn at random:
     the 2019 file holds one return per pulse) and on the datum 0.40 m lower, declaring none:
-    against 2015 with ``auto`` co-registration, judged against the providers' classes of the
-    returns kept; and against the whole 2019 survey, the same ground, where every region is false."""
+    against 2015 with ``auto`` co-registration, judged as the plain pair (the whole 2019 survey's
+    provider classes: the same ground, seen in more cells); and against the whole 2019 survey,
+    where every region is false."""
     whole = clouds["2019"]
     thin = whole.take(np.random.default_rng(2023).random(len(whole)) < LATER_POINTS / len(whole))
     found, judged = _later_datum(db, clouds, thin, "2019 sparse")
     same = detect(db, "2019", "2019 sparse", shift=coregister(db, "2019", "2019 sparse"))
     return {
-        **against_providers({"2015": clouds["2015"], "2019": thin}, found),
+        **against_providers(clouds, found),
         **judged,
         "points": len(thin),
         "same_ground_regions": len(same),

@@ -914,8 +914,8 @@ def epochs_section(out: list[str]) -> None:
         sparse = doc["providers"].get("sparse")
         if sparse:
             out.append(
-                f"Thinned as well, to the held-back survey's {sparse['points']:,} returns (judged against the "
-                "providers' classes of the returns kept), its largest region covers "
+                f"Thinned as well, to the held-back survey's {sparse['points']:,} returns (judged as the plain "
+                "pair: the same ground), its largest region covers "
                 f"{100 * sparse['largest_region_share_of_extent']:.1f} % of the site's extent; against the whole "
                 f"2019 survey, the same ground, it reports {sparse['same_ground_reported_m2']:,.0f} m² in "
                 f"{sparse['same_ground_regions']} regions, all of them false."
