@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from tdb.evidence import LEVEL, SUPPORT_SPACINGS, TileEvidence
+from tdb.evidence import LEVEL, OVER, OVER_CAP, SUPPORT_SPACINGS, TileEvidence
 from tdb.kdtree import plan_tree
 from tdb.median import median_filter
 from tdb.raster import Raster
@@ -79,6 +79,7 @@ def tile_evidence(
     the gap saying the rest. Its depth is how far the surface stands above its ground returns
     (:func:`tile_depth`), its layer the lift of the tiles around it (:func:`tile_layer`).
     ``tree``: :func:`tdb.kdtree.plan_tree` of ``ground_xyz``, where the caller has one.
+    The returns not taken for ground over each tile are NaN here: :func:`tile_over` measures them.
     """
     xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
     if len(xg) == 0:
@@ -93,7 +94,37 @@ def tile_evidence(
     beyond = _node_gaps(g, xg, yg, radius, tree=tree)
     support = (beyond == 0).mean(axis=1)
     gap = beyond.mean(axis=1)
-    return TileEvidence(xg, yg, *(a.astype(np.float32) for a in (lift, gap, depth, layer, support)))
+    none = np.full(len(xg), np.nan)
+    fields = (lift, gap, depth, layer, none, none, support)
+    return TileEvidence(xg, yg, *(a.astype(np.float32) for a in fields))
+
+
+def tile_over(
+    others: NDArray[np.float64], surface: Raster, xg: NDArray[np.int64], yg: NDArray[np.int64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Per 2 m tile (corners ``xg``, ``yg``), the lowest and the highest height (m) over
+    ``surface`` of the returns ``others`` (not taken for ground) that stand from :data:`OVER` to
+    :data:`OVER_CAP` over it; NaN where none.
+
+    What one survey took for ground and another did not (a low wall, a thicket's top) the other
+    saw where the first's surface is: its returns there are the evidence that the two surveys
+    differ in what they took for ground, not in the ground."""
+    xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
+    low, high = np.full(len(xg), np.nan), np.full(len(xg), np.nan)
+    o = np.asarray(others, float)
+    if len(o) == 0 or len(xg) == 0:
+        return low, high
+    grid = _TileGrid.of(xg, yg)
+    h = o[:, 2] - surface.sample(o[:, 0], o[:, 1])
+    cell = grid.cells(o[:, 0], o[:, 1])
+    keep = (cell >= 0) & (h >= OVER) & (h <= OVER_CAP)  # NaN (off the surface) fails both
+    lo, hi = np.full(grid.size, np.inf), np.full(grid.size, -np.inf)
+    np.minimum.at(lo, cell[keep], h[keep])
+    np.maximum.at(hi, cell[keep], h[keep])
+    at = grid.cells_of_tiles(xg, yg)
+    held = np.isfinite(lo[at])
+    low[held], high[held] = lo[at][held], hi[at][held]
+    return low, high
 
 
 def layer_window(spacing: float) -> int:

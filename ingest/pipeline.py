@@ -12,7 +12,7 @@ import numpy as np
 
 from ingest.block_size import block_bytes, check_fits
 from ingest.dtm import DEFAULT_RESOLUTION, dense_model
-from ingest.evidence import tile_evidence
+from ingest.evidence import tile_evidence, tile_over
 from ingest.ground import classify_ground
 from ingest.ground.grids import quantised
 from ingest.ground.hills import point_spacing
@@ -148,6 +148,8 @@ def survey(
     finest = model.levels[min(model.levels)]
     spacing = quantised(point_spacing(metric.xyz[:, :2]))
     evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm, noise=quiet, tree=tree)
+    low, high = tile_over(metric.xyz[~ground & ~metric.excluded(o.exclude)], dtm, finest.xg, finest.yg)
+    evidence = dataclasses.replace(evidence, over_low=low.astype(np.float32), over_high=high.astype(np.float32))
     objects = (
         find_objects(metric, ground, dtm, progress=report, skip=metric.excluded(o.exclude)) if o.objects else None
     )

@@ -9,7 +9,8 @@ ground noise and reduction errors, at least 0.1 m. Changed tiles then grow over
 neighbours whose category stayed the same but whose surface moved as well.
 Changed tiles that touch and moved the same way (rose or fell) form regions;
 a region whose higher surface lies in a layer taken for ground (tdb.evidence)
-thicker than its LoD is dropped, and each other one is typed by the filters
+thicker than its LoD is dropped, and so is one whose higher surface the other survey saw over
+most of it and did not take for ground; each other one is typed by the filters
 that match in one version and not the other.
 """
 
@@ -24,7 +25,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from queries.centreline import elongation
-from queries.change_parts import moved_by_parts, reached
+from queries.change_parts import MovedTiles, moved_by_parts, reached
 from queries.coregister import Shift, shifted_lattice, site
 from queries.filters import builtin_filters
 from queries.grids import shared_tiles
@@ -204,13 +205,13 @@ def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
     seeds = np.flatnonzero(moved.differ)
     if len(seeds) == 0:
         return []
-    seed_tiles = _Grown(moved.xg[seeds], moved.yg[seeds], moved.dz[seeds], moved.lod[seeds], moved.layer[:, seeds])
+    seed_tiles = _Grown.of(moved, seeds)
     strong, weak = _seeds(seed_tiles, level, min_tiles)
     if not strong and not weak:
         return []
     grown = reached(moved.xg, moved.yg, seeds[np.concatenate(strong + weak)], level)
     from_strong = np.isin(grown, seeds[np.concatenate(strong)]) if strong else np.zeros(len(grown), bool)
-    t = _Grown(moved.xg[grown], moved.yg[grown], moved.dz[grown], moved.lod[grown], moved.layer[:, grown])
+    t = _Grown.of(moved, grown)
     out = []
     for batch in _batches(_sure_regions(t, from_strong, level, min_tiles), t, level):
         idx = np.concatenate([m for m, *_ in batch])
@@ -230,6 +231,13 @@ class _Grown:
     dz: NDArray[np.float64]
     lod: NDArray[np.float64]
     layer: NDArray[np.float64]
+    over: NDArray[np.float64]  # (2, 2, tiles): each version's lowest and highest return not taken for ground
+
+    @classmethod
+    def of(cls, moved: MovedTiles, at: NDArray[np.intp]) -> _Grown:
+        """The moved tiles ``at``."""
+        m = moved
+        return cls(m.xg[at], m.yg[at], m.dz[at], m.lod[at], m.layer[:, at], m.over[..., at])
 
 
 Region = tuple[NDArray[np.intp], float, bool, float]  # members, mean dz, sure, LoD
@@ -264,14 +272,15 @@ def _detect_at_once(  # noqa: PLR0913 (the two versions, where, and how)
     if not moved.any():
         return []
     first = tested[moved]
-    seed_tiles = _Grown(xg[first], yg[first], dz[moved], tiles.lod[first], tiles.judged.layer[:, first])
+    j = tiles.judged
+    seed_tiles = _Grown(xg[first], yg[first], dz[moved], tiles.lod[first], j.layer[:, first], j.over[..., first])
     strong, weak = _seeds(seed_tiles, level, min_tiles)
     if not strong and not weak:
         return []
     seeds = first[np.concatenate(strong + weak)]
     grown, dz = _grow(tiles, valid, tested, dz, moved, seeds, level)
     from_strong = np.isin(grown, first[np.concatenate(strong)]) if strong else np.zeros(len(grown), bool)
-    t = _Grown(xg[grown], yg[grown], dz, tiles.lod[grown], tiles.judged.layer[:, grown])
+    t = _Grown(xg[grown], yg[grown], dz, tiles.lod[grown], j.layer[:, grown], j.over[..., grown])
     return _features(
         db, (before, after), _sure_regions(t, from_strong, level, min_tiles), t, lattices, level=level
     )
@@ -328,7 +337,7 @@ def _features(
     for (members, mean_dz, sure, region_lod), was, now in zip(regions, found[before], found[after]):
         if not sure and not _closed_form_changed(was, now, mean_dz):
             continue
-        if _under_a_layer(t.layer, members, mean_dz, region_lod):
+        if _under_a_layer(t.layer, members, mean_dz, region_lod) or _seen_there(t, members, mean_dz, region_lod):
             continue
         x, y = t.xg[members], t.yg[members]
         geom = outline(x, y, t.dz[members], t.lod[members], mean_dz, level=level)
@@ -352,6 +361,27 @@ def _under_a_layer(layers: NDArray[np.float64], members: NDArray[np.intp], mean_
     reached the ground, and the layer's lift says only how rough its top is, not how far it
     stands over the ground: the survey does not say where the ground was."""
     return bool(np.median(layers[1 if mean_dz > 0 else 0, members]) > lod)
+
+
+# A region a third of whose tiles the other survey saw at the new level is not claimed: a low wall
+# fills about a third of the tiles its change reaches (its own and the flanks either side).
+SEEN_SHARE = 1 / 3
+
+
+def _seen_there(t: _Grown, members: NDArray[np.intp], mean_dz: float, lod: float) -> bool:
+    """Whether, over :data:`SEEN_SHARE` of a region's tiles, the version whose surface lies lower
+    there (the earlier where it rose) holds returns it did not take for ground at the height the
+    other's surface reaches, within the level of detection.
+
+    Where one survey took for ground what the other saw and did not (a low wall, a thicket's top
+    over ground seen at a few points), the difference of their surfaces is one of what each took
+    for ground. Earth placed or dug leaves no such returns at the new level in the other survey."""
+    side = 0 if mean_dz > 0 else 1
+    rise = np.nanmax(np.sign(mean_dz) * t.dz[members], axis=1)  # the tile's top: a wall is narrower than it
+    low, high = t.over[side, 0, members], t.over[side, 1, members]
+    with np.errstate(invalid="ignore"):  # NaN where the survey holds no such return: not seen
+        seen = (rise >= low - lod) & (rise <= high + lod)
+    return bool(seen.mean() >= SEEN_SHARE)
 
 
 def outline(

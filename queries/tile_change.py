@@ -51,6 +51,9 @@ class TileJudgement:
     seen: NDArray[np.bool_]  # both versions saw the tile's ground well enough
     depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface may stand above its ground
     layer: NDArray[np.float64]  # (2, tiles) m: the layer each version's surface lies in (tdb.evidence)
+    # (2, 2, tiles) m: per version, the lowest and highest of its returns not taken for ground over
+    # its surface (tdb.evidence; NaN where none, or where the version holds no such evidence)
+    over: NDArray[np.float64]
 
 
 def tile_lod(
@@ -66,35 +69,51 @@ def tile_lod(
     seen = np.ones(len(xg), bool)
     depth = np.zeros((2, len(xg)))
     layer = np.zeros((2, len(xg)))
+    over = np.full((2, 2, len(xg)), np.nan)
     for side, name in enumerate((a, b)):
         evidence = db.evidence(name, bbox=bbox)
         if len(evidence) == 0:
             continue
         rmse = db.version(name).stats.reduction.rmse_m or 0.0
-        sigma2, support, depth[side], layer[side] = _per_tile(evidence, xg, yg, level)
+        fine = _at_level(evidence, xg, yg, level)
+        sigma2, support, depth[side], layer[side] = _per_tile(fine, len(xg), level)
+        over[side] = _over(fine, len(xg), level)
         variance += np.nan_to_num(sigma2, nan=0.0) + rmse**2
         seen &= support >= MIN_SUPPORT
-    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth, layer)
+    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth, layer, over)
+
+
+def _at_level(evidence: TileEvidence, xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> TileEvidence:
+    """The evidence of the 2 m tiles making up each tile of ``level``, tile by tile."""
+    k = level // EVIDENCE_LEVEL
+    if k == 1:
+        return evidence.at(xg, yg)
+    fx, fy = split_keys(xg // EVIDENCE_LEVEL // k, yg // EVIDENCE_LEVEL // k, k)
+    return evidence.at(fx * EVIDENCE_LEVEL, fy * EVIDENCE_LEVEL)
+
+
+def _over(e: TileEvidence, tiles: int, level: int) -> NDArray[np.float64]:
+    """(2, tiles): the lowest and the highest return not taken for ground over the surface among
+    the 2 m tiles making up each tile of ``level`` (``e``: theirs, :func:`_at_level`; NaN where none)."""
+    per = (tiles, (level // EVIDENCE_LEVEL) ** 2)
+    low, high = (getattr(e, f).astype(float).reshape(per) for f in ("over_low", "over_high"))
+    return np.stack([nan_extreme(low, -1.0, axis=1), nan_extreme(high, 1.0, axis=1)])
 
 
 def _per_tile(
-    evidence: TileEvidence, xg: NDArray[np.int64], yg: NDArray[np.int64], level: int
+    e: TileEvidence, tiles: int, level: int
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Mean variance of the relief hidden in gaps, mean support, mean standing (how far the
     surface may stand over the ground seen, 0 where nothing is held) and mean layer of the 2 m
-    tiles making up each tile of ``level``. A tile's own lift stays out: a wall built or a bank lifts the tiles
-    along its edges as vegetation does (the layer, the lift over an area, does not)."""
+    tiles making up each tile of ``level`` (``e``: theirs, :func:`_at_level`). A tile's own lift
+    stays out: a wall built or a bank lifts the tiles along its edges as vegetation does (the
+    layer, the lift over an area, does not)."""
     k = level // EVIDENCE_LEVEL
-    if k == 1:
-        e = evidence.at(xg, yg)
-    else:
-        fx, fy = split_keys(xg // EVIDENCE_LEVEL // k, yg // EVIDENCE_LEVEL // k, k)
-        e = evidence.at(fx * EVIDENCE_LEVEL, fy * EVIDENCE_LEVEL)
     variance = (GAP_SLOPE * e.gap.astype(float)) ** 2
     depth = e.standing
+    per = (tiles, k * k)
     with np.errstate(invalid="ignore"):
-        mean = np.nanmean(variance.reshape(len(xg), k * k), axis=1)
-    per = (len(xg), k * k)
+        mean = np.nanmean(variance.reshape(per), axis=1)
     layer = np.nan_to_num(e.layer.astype(float)).reshape(per).mean(axis=1)
     return mean, e.support.reshape(per).mean(axis=1), depth.reshape(per).mean(axis=1), layer
 

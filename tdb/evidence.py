@@ -17,6 +17,11 @@ the ground seen through it. Two figures per tile say how much to trust it:
   filter took low vegetation's top for the ground beside ground seen through it, the
   surface runs between the two and the ground seen lies under it: that survey saw the
   lower level, so a rise of the surface there is not evidence that the ground rose.
+- ``over_low``, ``over_high``: the lowest and highest of the tile's returns that the filter did
+  not take for ground, over its surface (those from :data:`OVER` to :data:`OVER_CAP` up). Where one survey took
+  for ground what another saw and did not (a low wall, a thicket's top), the other's returns
+  stand where the first's surface is: a change between them is one of what was taken for
+  ground, not of the ground (:mod:`queries.changes`).
 - ``layer``: how thick a layer taken for ground the tile lies in: the median lift of the
   tiles around it (:func:`ingest.evidence.tile_layer`). Under a closed canopy few returns
   reach the ground, and a filter takes the understorey for it: the ground seen is then too
@@ -46,6 +51,8 @@ SUPPORT_SPACINGS = 1.5  # open ground has a return within this many pulse spacin
 GAP_SLOPE = 0.1  # rise/run the terrain may take unseen across a gap in the ground returns
 MIN_SUPPORT = 0.5  # a change needs half a tile's nodes seen in each version
 DEEP = 0.1  # m: a surface this far over its ground returns rests partly on what was taken for ground
+OVER = 0.1  # m: returns not taken for ground this far over the surface stand on it (not noise in it)
+OVER_CAP = 3.0  # m: what stands higher than a wall or a thicket, no filter takes for ground
 
 
 @dataclass(frozen=True)
@@ -58,16 +65,19 @@ class TileEvidence:
     gap: NDArray[np.float32]  # m: mean distance of its nodes beyond the support radius
     depth: NDArray[np.float32]  # m: how far its surface stands above its ground returns
     layer: NDArray[np.float32]  # m: the median lift of the tiles around it
+    # m: the lowest and highest of its returns not taken for ground, over its surface (NaN: none)
+    over_low: NDArray[np.float32]
+    over_high: NDArray[np.float32]
     support: NDArray[np.float32]  # share of its nodes with a ground return within the radius
 
     # support last: a stored tile is held where it is set (:func:`tdb.blocks.evidence_from_blocks`);
     # a field added later goes before it, and reads NaN from pages written before it was
-    FIELDS = ("lift", "gap", "depth", "layer", "support")
+    FIELDS = ("lift", "gap", "depth", "layer", "over_low", "over_high", "support")
 
     @classmethod
     def empty(cls) -> TileEvidence:
         none = np.empty(0, np.float32)
-        return cls(np.empty(0, np.int64), np.empty(0, np.int64), none, none, none, none, none)
+        return cls(np.empty(0, np.int64), np.empty(0, np.int64), *([none] * len(cls.FIELDS)))
 
     def __len__(self) -> int:
         return len(self.xg)

@@ -39,7 +39,7 @@ def _key(features):
 @pytest.mark.parametrize("level", [2, 4])
 def test_a_diff_by_parts_finds_the_regions_of_the_diff_at_once(pair, level):
     whole = detect(pair, "a", "b", level=level)
-    assert len(whole) >= 3
+    assert len(whole) >= 2  # several regions, so that the parts have something to agree on
     seen = []
     with mock.patch.multiple(queries.parts, PART=256, PART_NODES=1000):
         parted = detect(pair, "a", "b", level=level, progress=lambda *a: seen.append(a), workers=2)

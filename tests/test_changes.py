@@ -352,3 +352,33 @@ def test_the_outline_holds_exactly_where_the_interpolated_change_passes_the_lod(
     interpolated = RegularGridInterpolator((np.arange(5.0), np.arange(9.0)), field * way / 0.3)((fy, fx))
     clear = np.abs(interpolated - 1.0) > 1e-9  # a cell on the contour itself may go either way
     assert np.array_equal(shapely.contains_xy(geom, fx, fy)[clear], interpolated[clear] > 1.0)
+
+
+def _walled(rng, *, wall: str):
+    """80 m of ground sloping 2 %, at 4 points/m², with a 1.5 m wall 1.2 m wide along its middle
+    whose returns are ``wall``: "ground" (class 2), "object" (class 1) or "none" (not built)."""
+    x, y = rng.uniform(0, 80, (2, 80 * 80 * 4)) + np.array([[500_000.0], [6_000_000.0]])
+    z = 50 + 0.02 * (x - 500_000) + rng.normal(0, 0.03, len(x))
+    on = (np.abs(x - 500_040) < 0.6) & (np.abs(y - 6_000_040) < 30)
+    cls = np.full(len(x), 2, np.uint8)
+    if wall == "none":
+        keep = ~on
+        return from_arrays(x[keep], y[keep], z[keep], classification=cls[keep], crs="EPSG:25832")
+    z[on] += 1.5
+    cls[on] = 2 if wall == "ground" else 1
+    return from_arrays(x, y, z, classification=cls, crs="EPSG:25832")
+
+
+@pytest.mark.parametrize(("before", "reported"), [("object", False), ("none", True)])
+def test_a_wall_one_survey_saw_and_did_not_take_for_ground_is_no_change(tmp_path, before, reported):
+    from ingest.pipeline import IngestOptions
+
+    rng = np.random.default_rng(9)
+    db = tdb.open(tmp_path / "w.tdb", create=True)
+    # the providers' classes say what each survey took for ground
+    options = IngestOptions(method="classified", objects=False)
+    ingest(_walled(rng, wall=before), db, version="a", options=options)
+    ingest(_walled(rng, wall="ground"), db, version="b", options=options)
+    wall = shapely.box(500_039, 6_000_010, 500_041, 6_000_070)
+    found = [f for f in detect(db, "a", "b") if shapely.geometry.shape(f["geometry"]).intersects(wall)]
+    assert bool(found) is reported

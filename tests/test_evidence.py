@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from sqlalchemy import text
 
@@ -377,3 +377,26 @@ def test_support_and_gap_are_those_of_the_nearest_return(n, spacing, seed):
     d = np.hypot(nx[:, None] - g[None, :, 0], ny[:, None] - g[None, :, 1]).min(axis=1).reshape(len(xg), 9)
     np.testing.assert_allclose(e.support, (d <= radius).mean(axis=1), atol=1e-6)
     np.testing.assert_allclose(e.gap, np.maximum(d - radius, 0.0).mean(axis=1), rtol=1e-5, atol=1e-4)
+
+
+@settings(max_examples=20, deadline=None)
+@given(heights=st.lists(st.floats(-2.0, 6.0), min_size=1, max_size=12), slope=st.floats(-0.2, 0.2))
+def test_a_tile_keeps_the_lowest_and_highest_return_not_taken_for_ground_within_reach(heights, slope):
+    from ingest.evidence import tile_over
+    from tdb.evidence import OVER, OVER_CAP
+
+    # a sloping plane of ground returns every 0.5 m over 10 m; the returns stand in tile (4, 4)
+    gx, gy = (a.ravel() for a in np.meshgrid(np.arange(0, 10.01, 0.5), np.arange(0, 10.01, 0.5)))
+    g = np.column_stack([gx, gy, slope * gx])
+    h = np.array(heights)
+    assume(np.abs(h - OVER).min() > 1e-6 and np.abs(h - OVER_CAP).min() > 1e-6)  # rounding at the bounds
+    x = np.linspace(4.2, 5.8, len(h))
+    others = np.column_stack([x, np.full(len(h), 4.5), slope * x + h])
+    xg, yg = np.array([4, 6], np.int64), np.array([4, 4], np.int64)
+    low, high = tile_over(others, _surface(g), xg, yg)
+    kept = h[(h >= OVER) & (h <= OVER_CAP)]
+    if len(kept):
+        assert low[0] == pytest.approx(kept.min(), abs=1e-6) and high[0] == pytest.approx(kept.max(), abs=1e-6)
+    else:
+        assert np.isnan(low[0]) and np.isnan(high[0])
+    assert np.isnan(low[1]) and np.isnan(high[1])  # the tile beside holds none
