@@ -918,7 +918,8 @@ def epochs_section(out: list[str]) -> None:
                 "pair: the same ground), its largest region covers "
                 f"{100 * sparse['largest_region_share_of_extent']:.1f} % of the site's extent; against the whole "
                 f"2019 survey, the same ground, it reports {sparse['same_ground_reported_m2']:,.0f} m² in "
-                f"{sparse['same_ground_regions']} regions, all of them false."
+                f"{sparse['same_ground_regions']} region{'' if sparse['same_ground_regions'] == 1 else 's'}, "
+                "all of it false."
             )
         out.append("")
     out += [
