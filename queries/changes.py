@@ -10,7 +10,7 @@ neighbours whose category stayed the same but whose surface moved as well.
 Changed tiles that touch and moved the same way (rose or fell) form regions;
 a region whose higher surface lies in a layer taken for ground (tdb.evidence)
 thicker than its LoD is dropped, and so is one whose higher surface the other survey saw over
-most of it and did not take for ground; each other one is typed by the filters
+a third of it and did not take for ground; each other one is typed by the filters
 that match in one version and not the other.
 """
 
