@@ -6,6 +6,7 @@ python -m benchmarks.report
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from typing import Any
 
 from benchmarks.common import RESULTS, ROOT
@@ -986,6 +987,7 @@ def changes_section(out: list[str]) -> None:
             f"{h['precision']:.2f}{strict(h)}; typed right {h['typed_right']} of {h['changes']}.",
             "",
         ]
+    out += _other_densities(strict)
     if "km2" in doc:
         mo = doc["km2"]
         out += [
@@ -1016,6 +1018,22 @@ def changes_section(out: list[str]) -> None:
                 f"runs **{mo['coregister_seconds']:.2f} s** (target: it adds ≤ 0.5 s per km² to a diff).",
                 "",
             ]
+
+
+def _other_densities(strict: Callable[[dict[str, Any]], str]) -> list[str]:
+    """Lines for the synthetic pairs scored at other densities (``changes_synth_d*.json``)."""
+    out = []
+    others = [json.loads(p.read_text()) for p in RESULTS.glob("changes_synth_d*.json")]
+    for d in sorted(others, key=lambda d: d["density"]):
+        per_seed = ", ".join(f"{r['precision']:.2f}" for r in d["runs"].values())
+        dm = d["mean"]
+        out += [
+            f"At {d['density']:g} points/m² (seeds {', '.join(d['runs'])}; {_machine(d)}): recall "
+            f"{dm['recall']:.2f}, precision {dm['precision']:.2f} (per seed {per_seed}){strict(dm)}; typed "
+            f"right {dm['typed_right']} of {dm['changes']}.",
+            "",
+        ]
+    return out
 
 
 def _roofs_section(out: list[str]) -> None:
