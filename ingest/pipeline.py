@@ -139,20 +139,19 @@ def survey(
     # one k-d tree of the ground returns for the noise and the evidence
     tree = plan_tree(gxyz[:, :2]) if len(gxyz) else None
     noise, quiet = ground_noises(gxyz, (50.0, QUIET), tree=tree)
+    left_out = metric.excluded(o.exclude)
     threshold = o.flat_threshold
     if threshold is None:
-        seen = metric.xyz[~metric.excluded(o.exclude)]
+        seen = metric.xyz[~left_out]
         threshold = pilot_threshold(gxyz, fullest_square(square_counts(seen[:, 0], seen[:, 1])))
     report("categories and reduction", 0, 1)
     model = build(dtm, flat_threshold=threshold, n=SUBGRID, measure=measure)
     finest = model.levels[min(model.levels)]
     spacing = quantised(point_spacing(metric.xyz[:, :2]))
     evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm, noise=quiet, tree=tree)
-    low, high = tile_over(metric.xyz[~ground & ~metric.excluded(o.exclude)], dtm, finest.xg, finest.yg)
+    low, high = tile_over(metric.xyz[~ground & ~left_out], dtm, finest.xg, finest.yg)
     evidence = dataclasses.replace(evidence, over_low=low.astype(np.float32), over_high=high.astype(np.float32))
-    objects = (
-        find_objects(metric, ground, dtm, progress=report, skip=metric.excluded(o.exclude)) if o.objects else None
-    )
+    objects = find_objects(metric, ground, dtm, progress=report, skip=left_out) if o.objects else None
     return Survey(metric, ground, dtm, noise, threshold, model, evidence, objects)
 
 

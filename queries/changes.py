@@ -236,8 +236,9 @@ class _Grown:
     @classmethod
     def of(cls, moved: MovedTiles, at: NDArray[np.intp]) -> _Grown:
         """The moved tiles ``at``."""
-        m = moved
-        return cls(m.xg[at], m.yg[at], m.dz[at], m.lod[at], m.layer[:, at], m.over[..., at])
+        return cls(
+            moved.xg[at], moved.yg[at], moved.dz[at], moved.lod[at], moved.layer[:, at], moved.over[..., at]
+        )
 
 
 Region = tuple[NDArray[np.intp], float, bool, float]  # members, mean dz, sure, LoD

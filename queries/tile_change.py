@@ -96,7 +96,7 @@ def _over(e: TileEvidence, tiles: int, level: int) -> NDArray[np.float64]:
     """(2, tiles): the lowest and the highest return not taken for ground over the surface among
     the 2 m tiles making up each tile of ``level`` (``e``: theirs, :func:`_at_level`; NaN where none)."""
     per = (tiles, (level // EVIDENCE_LEVEL) ** 2)
-    low, high = (getattr(e, f).astype(float).reshape(per) for f in ("over_low", "over_high"))
+    low, high = e.over_low.astype(float).reshape(per), e.over_high.astype(float).reshape(per)
     return np.stack([nan_extreme(low, -1.0, axis=1), nan_extreme(high, 1.0, axis=1)])
 
 
