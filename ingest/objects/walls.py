@@ -37,6 +37,7 @@ class _Stretch:
     point: NDArray[np.float64]  # FREE: a point of the fitted line
     direction: NDArray[np.float64]  # FREE: the fitted line's unit direction
     start: NDArray[np.float64]  # the outline's vertex where the stretch begins
+    vertices: NDArray[np.float64]  # the outline's vertices along the stretch, its ends included
 
 
 def main_direction(polygon: shapely.Polygon, *, resolution: float) -> float:
@@ -160,7 +161,7 @@ def _stretches(uv: NDArray[np.float64], resolution: float) -> list[_Stretch]:
     for span in spans:
         kind, offset = kind_offset(span)
         point, direction = _line(uv[np.union1d(span, span + 1)])
-        out.append(_Stretch(kind, offset, point, direction, uv[span[0]]))
+        out.append(_Stretch(kind, offset, point, direction, uv[span[0]], uv[np.r_[span, span[-1] + 1]]))
     return out
 
 
@@ -233,7 +234,9 @@ def _as_line(s: _Stretch) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
 
 def _corners(stretches: list[_Stretch], resolution: float) -> list[NDArray[np.float64]]:
     """Where each stretch's line meets the next one's: their intersection, or a step at the
-    outline's vertex between them where they are parallel or meet far from it."""
+    outline's vertex between them where they are parallel or meet far from the outline of both.
+    Far from the outline, not from the vertex between them: a stretch may begin with a cut corner
+    joined to it, the outline turning well before that vertex."""
     out = []
     for k, a in enumerate(stretches):
         b = stretches[(k + 1) % len(stretches)]
@@ -244,7 +247,8 @@ def _corners(stretches: list[_Stretch], resolution: float) -> list[NDArray[np.fl
         if abs(sine) >= MIN_SINE:
             t = ((pb - pa)[0] * db[1] - (pb - pa)[1] * db[0]) / sine
             corner = pa + t * da
-            if np.hypot(*(corner - joint)) <= FAR * resolution:
+            near = np.hypot(*(np.vstack([a.vertices, b.vertices]) - corner).T).min()
+            if near <= FAR * resolution:
                 out.append(corner)
                 continue
         out.append(pa + ((joint - pa) @ da) * da)
