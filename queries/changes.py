@@ -10,8 +10,9 @@ neighbours whose category stayed the same but whose surface moved as well.
 Changed tiles that touch and moved the same way (rose or fell) form regions;
 a region whose higher surface lies in a layer taken for ground (tdb.evidence)
 thicker than its LoD is dropped, and so is one whose higher surface the other survey saw over
-a third of it and did not take for ground; each other one is typed by the filters
-that match in one version and not the other.
+a third of it and did not take for ground, and one where most pulses of the survey whose
+surface stands higher did not reach what it took for ground; each other one is typed by the
+filters that match in one version and not the other.
 """
 
 from __future__ import annotations
@@ -232,13 +233,19 @@ class _Grown:
     lod: NDArray[np.float64]
     layer: NDArray[np.float64]
     over: NDArray[np.float64]  # (2, 2, tiles): each version's lowest and highest return not taken for ground
+    share: NDArray[np.float64]  # (2, tiles): the share of each version's pulses taken for ground
 
     @classmethod
     def of(cls, moved: MovedTiles, at: NDArray[np.intp]) -> _Grown:
         """The moved tiles ``at``."""
-        return cls(
-            moved.xg[at], moved.yg[at], moved.dz[at], moved.lod[at], moved.layer[:, at], moved.over[..., at]
-        )
+        m = moved
+        return cls(m.xg[at], m.yg[at], m.dz[at], m.lod[at], m.layer[:, at], m.over[..., at], m.share[:, at])
+
+    @classmethod
+    def judged(cls, tiles: MovingTiles, at: NDArray[np.intp], dz: NDArray[np.float64]) -> _Grown:
+        """The tiles ``at`` of ``tiles``, their node height changes ``dz``."""
+        j = tiles.judged
+        return cls(tiles.xg[at], tiles.yg[at], dz, j.lod[at], j.layer[:, at], j.over[..., at], j.share[:, at])
 
 
 Region = tuple[NDArray[np.intp], float, bool, float]  # members, mean dz, sure, LoD
@@ -273,15 +280,14 @@ def _detect_at_once(  # noqa: PLR0913 (the two versions, where, and how)
     if not moved.any():
         return []
     first = tested[moved]
-    j = tiles.judged
-    seed_tiles = _Grown(xg[first], yg[first], dz[moved], tiles.lod[first], j.layer[:, first], j.over[..., first])
+    seed_tiles = _Grown.judged(tiles, first, dz[moved])
     strong, weak = _seeds(seed_tiles, level, min_tiles)
     if not strong and not weak:
         return []
     seeds = first[np.concatenate(strong + weak)]
     grown, dz = _grow(tiles, valid, tested, dz, moved, seeds, level)
     from_strong = np.isin(grown, first[np.concatenate(strong)]) if strong else np.zeros(len(grown), bool)
-    t = _Grown(xg[grown], yg[grown], dz, tiles.lod[grown], j.layer[:, grown], j.over[..., grown])
+    t = _Grown.judged(tiles, grown, dz)
     return _features(
         db, (before, after), _sure_regions(t, from_strong, level, min_tiles), t, lattices, level=level
     )
@@ -338,7 +344,11 @@ def _features(
     for (members, mean_dz, sure, region_lod), was, now in zip(regions, found[before], found[after]):
         if not sure and not _closed_form_changed(was, now, mean_dz):
             continue
-        if _under_a_layer(t.layer, members, mean_dz, region_lod) or _seen_there(t, members, mean_dz, region_lod):
+        if (
+            _under_a_layer(t.layer, members, mean_dz, region_lod)
+            or _seen_there(t, members, mean_dz, region_lod)
+            or _under_cover(t.share, members, mean_dz)
+        ):
             continue
         x, y = t.xg[members], t.yg[members]
         geom = outline(x, y, t.dz[members], t.lod[members], mean_dz, level=level)
@@ -383,6 +393,26 @@ def _seen_there(t: _Grown, members: NDArray[np.intp], mean_dz: float, lod: float
     with np.errstate(invalid="ignore"):  # NaN where the survey holds no such return: not seen
         seen = (rise >= low - lod) & (rise <= high + lod)
     return bool(seen.mean() >= SEEN_SHARE)
+
+
+# A region is not claimed where the survey whose surface stands higher took for ground less than
+# this share of its pulses: most of them ended in the cover, not on what it took for ground.
+COVERED = 0.5
+
+
+def _under_cover(share: NDArray[np.float64], members: NDArray[np.intp], mean_dz: float) -> bool:
+    """Whether the version whose surface stands higher over a region (the later where it rose)
+    took for ground less than :data:`COVERED` of its pulses there: the median of its tiles' shares
+    (``share``: 2 × tiles; tiles holding no such evidence, NaN, do not count).
+
+    Under a closed canopy few pulses reach the ground. A dense survey still holds enough of those
+    for its filter to find the ground among them; a sparse one may hold too few, and its filter
+    takes the understorey's top for the ground: a surface that stands over the ground as far as
+    the shrubs rise, rough but with no return under it to show its depth. A fill or a new bank
+    left bare has most pulses on it."""
+    held = share[1 if mean_dz > 0 else 0, members]
+    held = held[np.isfinite(held)]
+    return bool(len(held) and np.median(held) < COVERED)
 
 
 def outline(
