@@ -79,8 +79,8 @@ def tile_evidence(
     the gap saying the rest. Its depth is how far the surface stands above its ground returns
     (:func:`tile_depth`), its layer the lift of the tiles around it (:func:`tile_layer`).
     ``tree``: :func:`tdb.kdtree.plan_tree` of ``ground_xyz``, where the caller has one.
-    The returns not taken for ground over each tile and the share of its pulses taken for ground
-    are NaN here: :func:`tile_over` and :func:`tile_ground_share` measure them.
+    The returns not taken for ground over each tile and its pulses are NaN here: :func:`tile_over`
+    and :func:`tile_pulses` measure them.
     """
     xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
     if len(xg) == 0:
@@ -96,7 +96,7 @@ def tile_evidence(
     support = (beyond == 0).mean(axis=1)
     gap = beyond.mean(axis=1)
     none = np.full(len(xg), np.nan)
-    fields = (lift, gap, depth, layer, none, none, none, support)
+    fields = (lift, gap, depth, layer, none, none, none, none, support)
     return TileEvidence(xg, yg, *(a.astype(np.float32) for a in fields))
 
 
@@ -128,24 +128,24 @@ def tile_over(
     return low, high
 
 
-def tile_ground_share(
+def tile_pulses(
     xy: NDArray[np.float64], ground: NDArray[np.bool_], xg: NDArray[np.int64], yg: NDArray[np.int64]
-) -> NDArray[np.float64]:
-    """Per 2 m tile (corners ``xg``, ``yg``), the share of the pulses ``xy`` (their last returns)
-    that ``ground`` marks as taken for ground; NaN where the tile holds none."""
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Per 2 m tile (corners ``xg``, ``yg``), the pulses ``xy`` (their last returns) per m², and
+    the share of them that ``ground`` marks as taken for ground; both NaN where the tile holds none."""
     xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
-    out = np.full(len(xg), np.nan)
+    density, share = np.full(len(xg), np.nan), np.full(len(xg), np.nan)
     if len(xy) == 0 or len(xg) == 0:
-        return out
+        return density, share
     grid = _TileGrid.of(xg, yg)
     cell = grid.cells(xy[:, 0], xy[:, 1])
     on = cell >= 0
-    pulses = np.bincount(cell[on], minlength=grid.size)
+    pulses = np.bincount(cell[on], minlength=grid.size)[grid.cells_of_tiles(xg, yg)]
     grounded = np.bincount(cell[on], weights=np.asarray(ground, bool)[on], minlength=grid.size)
-    at = grid.cells_of_tiles(xg, yg)
-    held = pulses[at] > 0
-    out[held] = grounded[at][held] / pulses[at][held]
-    return out
+    held = pulses > 0
+    density[held] = pulses[held] / LEVEL**2
+    share[held] = grounded[grid.cells_of_tiles(xg, yg)][held] / pulses[held]
+    return density, share
 
 
 def layer_window(spacing: float) -> int:

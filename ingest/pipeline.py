@@ -12,7 +12,7 @@ import numpy as np
 
 from ingest.block_size import block_bytes, check_fits
 from ingest.dtm import DEFAULT_RESOLUTION, dense_model
-from ingest.evidence import tile_evidence, tile_ground_share, tile_over
+from ingest.evidence import tile_evidence, tile_over, tile_pulses
 from ingest.ground import classify_ground
 from ingest.ground.grids import quantised
 from ingest.ground.hills import point_spacing
@@ -151,11 +151,12 @@ def survey(
     evidence = tile_evidence(gxyz, finest.xg, finest.yg, spacing=spacing, surface=dtm, noise=quiet, tree=tree)
     low, high = tile_over(metric.xyz[~ground & ~left_out], dtm, finest.xg, finest.yg)
     pulses = ~left_out & (metric.return_number >= metric.number_of_returns)  # each pulse's last return
-    share = tile_ground_share(metric.xyz[pulses, :2], ground[pulses], finest.xg, finest.yg)
+    density, share = tile_pulses(metric.xyz[pulses, :2], ground[pulses], finest.xg, finest.yg)
     evidence = dataclasses.replace(
         evidence,
         over_low=low.astype(np.float32),
         over_high=high.astype(np.float32),
+        pulses=density.astype(np.float32),
         ground_share=share.astype(np.float32),
     )
     objects = find_objects(metric, ground, dtm, progress=report, skip=left_out) if o.objects else None

@@ -34,8 +34,8 @@ NEIGHBOURS = np.array([(di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di 
 class MovedTiles:
     """The tiles of a level whose surface moved beyond their level of detection: lower-left
     corners, the height change at their 3 × 3 nodes (tiles × 9), their LoD, the layer each
-    version's surface lies in (2 × tiles), its returns not taken for ground (2 × 2 × tiles) and the
-    share of its pulses taken for ground (2 × tiles, :class:`queries.tile_change.TileJudgement`),
+    version's surface lies in (2 × tiles), its returns not taken for ground and its pulses taken
+    for ground (each 2 × 2 × tiles, :class:`queries.tile_change.TileJudgement`),
     and whether their category differs (the tiles a change starts from)."""
 
     xg: NDArray[np.int64]
@@ -44,7 +44,7 @@ class MovedTiles:
     lod: NDArray[np.float64]
     layer: NDArray[np.float64]
     over: NDArray[np.float64]
-    share: NDArray[np.float64]
+    pulses: NDArray[np.float64]
     differ: NDArray[np.bool_]
 
     @staticmethod
@@ -59,7 +59,7 @@ class MovedTiles:
                 np.zeros(0),
                 np.zeros((2, 0)),
                 np.zeros((2, 2, 0)),
-                np.zeros((2, 0)),
+                np.zeros((2, 2, 0)),
                 np.zeros(0, bool),
             )
         cat = np.concatenate
@@ -70,7 +70,7 @@ class MovedTiles:
             cat([p.lod for p in parts]),
             cat([p.layer for p in parts], axis=1),
             cat([p.over for p in parts], axis=2),
-            cat([p.share for p in parts], axis=1),
+            cat([p.pulses for p in parts], axis=2),
             cat([p.differ for p in parts]),
         )
 
@@ -129,7 +129,9 @@ def _moved_in(db: Database, job: _Part) -> MovedTiles | None:
     tested, dz, moved = MovingTiles(xg, yg, lattices[0], lattices[1], judged).moved(np.arange(len(xg)))
     t = tested[moved]
     j = judged
-    return MovedTiles(xg[t], yg[t], dz[moved], j.lod[t], j.layer[:, t], j.over[..., t], j.share[:, t], differ[t])
+    return MovedTiles(
+        xg[t], yg[t], dz[moved], j.lod[t], j.layer[:, t], j.over[..., t], j.pulses[..., t], differ[t]
+    )
 
 
 def reached(xg: NDArray[np.int64], yg: NDArray[np.int64], seeds: NDArray[np.intp], level: int) -> NDArray[np.intp]:

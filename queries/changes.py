@@ -233,19 +233,19 @@ class _Grown:
     lod: NDArray[np.float64]
     layer: NDArray[np.float64]
     over: NDArray[np.float64]  # (2, 2, tiles): each version's lowest and highest return not taken for ground
-    share: NDArray[np.float64]  # (2, tiles): the share of each version's pulses taken for ground
+    pulses: NDArray[np.float64]  # (2, 2, tiles): the share of each version's pulses taken for ground, and per m²
 
     @classmethod
     def of(cls, moved: MovedTiles, at: NDArray[np.intp]) -> _Grown:
         """The moved tiles ``at``."""
         m = moved
-        return cls(m.xg[at], m.yg[at], m.dz[at], m.lod[at], m.layer[:, at], m.over[..., at], m.share[:, at])
+        return cls(m.xg[at], m.yg[at], m.dz[at], m.lod[at], m.layer[:, at], m.over[..., at], m.pulses[..., at])
 
     @classmethod
     def judged(cls, tiles: MovingTiles, at: NDArray[np.intp], dz: NDArray[np.float64]) -> _Grown:
         """The tiles ``at`` of ``tiles``, their node height changes ``dz``."""
         j = tiles.judged
-        return cls(tiles.xg[at], tiles.yg[at], dz, j.lod[at], j.layer[:, at], j.over[..., at], j.share[:, at])
+        return cls(tiles.xg[at], tiles.yg[at], dz, j.lod[at], j.layer[:, at], j.over[..., at], j.pulses[..., at])
 
 
 Region = tuple[NDArray[np.intp], float, bool, float]  # members, mean dz, sure, LoD
@@ -347,7 +347,7 @@ def _features(
         if (
             _under_a_layer(t.layer, members, mean_dz, region_lod)
             or _seen_there(t, members, mean_dz, region_lod)
-            or _under_cover(t.share, members, mean_dz)
+            or _under_cover(t.pulses, members, mean_dz)
         ):
             continue
         x, y = t.xg[members], t.yg[members]
@@ -396,23 +396,30 @@ def _seen_there(t: _Grown, members: NDArray[np.intp], mean_dz: float, lod: float
 
 
 # A region is not claimed where the survey whose surface stands higher took for ground less than
-# this share of its pulses: most of them ended in the cover, not on what it took for ground.
+# COVERED of its pulses (most ended in the cover) and fewer than GROUNDED of them per m²: a ground
+# filter rests its surface on the lowest return of each square metre (its seed cells), which is
+# the understorey's top wherever no pulse reached the ground there.
 COVERED = 0.5
+GROUNDED = 1.0  # pulses taken for ground per m²
 
 
-def _under_cover(share: NDArray[np.float64], members: NDArray[np.intp], mean_dz: float) -> bool:
+def _under_cover(pulses: NDArray[np.float64], members: NDArray[np.intp], mean_dz: float) -> bool:
     """Whether the version whose surface stands higher over a region (the later where it rose)
-    took for ground less than :data:`COVERED` of its pulses there: the median of its tiles' shares
-    (``share``: 2 × tiles; tiles holding no such evidence, NaN, do not count).
+    took for ground less than :data:`COVERED` of its pulses there and fewer than
+    :data:`GROUNDED` per m² (the medians over its tiles; ``pulses``: 2 × 2 × tiles, each
+    version's share and pulses per m² taken for ground; tiles holding no such evidence, NaN, do
+    not count).
 
     Under a closed canopy few pulses reach the ground. A dense survey still holds enough of those
-    for its filter to find the ground among them; a sparse one may hold too few, and its filter
-    takes the understorey's top for the ground: a surface that stands over the ground as far as
-    the shrubs rise, rough but with no return under it to show its depth. A fill or a new bank
-    left bare has most pulses on it."""
-    held = share[1 if mean_dz > 0 else 0, members]
-    held = held[np.isfinite(held)]
-    return bool(len(held) and np.median(held) < COVERED)
+    for its filter to find the ground among the understorey's tops; a sparse one does not, and its
+    filter takes the understorey's top for the ground: a surface that stands over the ground as
+    far as the shrubs rise, rough but with no return under it to show its depth. A fill or a new
+    bank left bare has most pulses on it."""
+    share, density = pulses[1 if mean_dz > 0 else 0][:, members]
+    held = np.isfinite(share) & np.isfinite(density)
+    if not held.any():
+        return False
+    return bool(np.median(share[held]) < COVERED and np.median(density[held]) < GROUNDED)
 
 
 def outline(

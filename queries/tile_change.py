@@ -54,9 +54,9 @@ class TileJudgement:
     # (2, 2, tiles) m: per version, the lowest and highest of its returns not taken for ground over
     # its surface (tdb.evidence; NaN where none, or where the version holds no such evidence)
     over: NDArray[np.float64]
-    # (2, tiles): per version, the share of its pulses taken for ground (tdb.evidence; NaN where
-    # it holds none, or no such evidence)
-    share: NDArray[np.float64]
+    # (2, 2, tiles): per version, the share of its pulses taken for ground and those pulses per m²
+    # (tdb.evidence; NaN where it holds none, or no such evidence)
+    pulses: NDArray[np.float64]
 
 
 def tile_lod(
@@ -73,7 +73,7 @@ def tile_lod(
     depth = np.zeros((2, len(xg)))
     layer = np.zeros((2, len(xg)))
     over = np.full((2, 2, len(xg)), np.nan)
-    share = np.full((2, len(xg)), np.nan)
+    pulses = np.full((2, 2, len(xg)), np.nan)
     for side, name in enumerate((a, b)):
         evidence = db.evidence(name, bbox=bbox)
         if len(evidence) == 0:
@@ -82,10 +82,10 @@ def tile_lod(
         fine = _at_level(evidence, xg, yg, level)
         sigma2, support, depth[side], layer[side] = _per_tile(fine, len(xg), level)
         over[side] = _over(fine, len(xg), level)
-        share[side] = _mean_share(fine, len(xg), level)
+        pulses[side] = _grounded(fine, len(xg), level)
         variance += np.nan_to_num(sigma2, nan=0.0) + rmse**2
         seen &= support >= MIN_SUPPORT
-    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth, layer, over, share)
+    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth, layer, over, pulses)
 
 
 def _at_level(evidence: TileEvidence, xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> TileEvidence:
@@ -105,14 +105,19 @@ def _over(e: TileEvidence, tiles: int, level: int) -> NDArray[np.float64]:
     return np.stack([nan_extreme(low, -1.0, axis=1), nan_extreme(high, 1.0, axis=1)])
 
 
-def _mean_share(e: TileEvidence, tiles: int, level: int) -> NDArray[np.float64]:
-    """The mean share of the pulses taken for ground over the 2 m tiles making up each tile of
-    ``level`` that hold any (``e``: theirs, :func:`_at_level`; NaN where none does)."""
-    share = e.ground_share.astype(float).reshape(tiles, (level // EVIDENCE_LEVEL) ** 2)
-    held = np.isfinite(share)
-    total = np.where(held, share, 0.0).sum(axis=1)
+def _grounded(e: TileEvidence, tiles: int, level: int) -> NDArray[np.float64]:
+    """(2, tiles): the share of the pulses taken for ground, and those pulses per m², over the 2 m
+    tiles making up each tile of ``level`` (``e``: theirs, :func:`_at_level`; NaN where none holds any)."""
+    per = (tiles, (level // EVIDENCE_LEVEL) ** 2)
+    density, share = e.pulses.astype(float).reshape(per), e.ground_share.astype(float).reshape(per)
+    held = np.isfinite(density) & np.isfinite(share)
+    pulses = np.where(held, density, 0.0).sum(axis=1)
+    grounded = np.where(held, density * share, 0.0).sum(axis=1)
     count = held.sum(axis=1)
-    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.stack(
+            [np.where(pulses > 0, grounded / pulses, np.nan), np.where(count > 0, grounded / count, np.nan)]
+        )
 
 
 def _per_tile(

@@ -22,12 +22,14 @@ the ground seen through it. Two figures per tile say how much to trust it:
   for ground what another saw and did not (a low wall, a thicket's top), the other's returns
   stand where the first's surface is: a change between them is one of what was taken for
   ground, not of the ground (:mod:`queries.changes`).
-- ``ground_share``: the share of the tile's pulses (their last returns) that the filter took for
-  ground. Under a closed canopy most pulses end in the crowns or the understorey and few reach
-  the ground; where a sparse survey's filter took the understorey's top for the ground among
-  them, nothing else in the tile shows it (its few returns taken for ground lie on one rough
-  level). Where most pulses did not reach what was taken for ground, that survey saw the cover,
-  not the ground (:mod:`queries.changes`).
+- ``pulses``, ``ground_share``: the tile's pulses per m² (their last returns), and the share of
+  them that the filter took for ground. Under a closed canopy most pulses end in the crowns or
+  the understorey and few reach the ground. A dense survey still holds enough of those for its
+  filter to find the ground among the understorey's tops; a sparse one may not, and its filter
+  then takes the understorey's top for the ground, which nothing else in the tile shows (its
+  few returns taken for ground lie on one rough level). Where most pulses did not reach what was
+  taken for ground, and those that did are fewer than one per square metre, that survey saw the
+  cover, not the ground (:mod:`queries.changes`).
 - ``layer``: how thick a layer taken for ground the tile lies in: the median lift of the
   tiles around it (:func:`ingest.evidence.tile_layer`). Under a closed canopy few returns
   reach the ground, and a filter takes the understorey for it: the ground seen is then too
@@ -74,12 +76,13 @@ class TileEvidence:
     # m: the lowest and highest of its returns not taken for ground, over its surface (NaN: none)
     over_low: NDArray[np.float32]
     over_high: NDArray[np.float32]
-    ground_share: NDArray[np.float32]  # share of its pulses (last returns) taken for ground (NaN: none)
+    pulses: NDArray[np.float32]  # its pulses (last returns) per m² (NaN: none)
+    ground_share: NDArray[np.float32]  # the share of them taken for ground (NaN: none)
     support: NDArray[np.float32]  # share of its nodes with a ground return within the radius
 
     # support last: a stored tile is held where it is set (:func:`tdb.blocks.evidence_from_blocks`);
     # a field added later goes before it, and reads NaN from pages written before it was
-    FIELDS = ("lift", "gap", "depth", "layer", "over_low", "over_high", "ground_share", "support")
+    FIELDS = ("lift", "gap", "depth", "layer", "over_low", "over_high", "pulses", "ground_share", "support")
 
     @classmethod
     def empty(cls) -> TileEvidence:

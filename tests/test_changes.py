@@ -382,3 +382,34 @@ def test_a_wall_one_survey_saw_and_did_not_take_for_ground_is_no_change(tmp_path
     wall = shapely.box(500_039, 6_000_010, 500_041, 6_000_070)
     found = [f for f in detect(db, "a", "b") if shapely.geometry.shape(f["geometry"]).intersects(wall)]
     assert bool(found) is reported
+
+
+def _thicket(rng, *, cover: str, density: float = 1.0):
+    """80 m of ground sloping 2 % at ``density`` pulses/m² whose middle 30 m square stands 0.8 m
+    higher in what was taken for ground (class 2): left bare (``cover`` "bare", a fill), or under
+    crowns (``cover`` "crowns") that stop seven pulses in ten, the rest ending on the
+    understorey's top; "none": no higher."""
+    x, y = rng.uniform(0, 80, (2, int(80 * 80 * density))) + np.array([[500_000.0], [6_000_000.0]])
+    z = 50 + 0.02 * (x - 500_000) + rng.normal(0, 0.03, len(x))
+    on = (np.abs(x - 500_040) < 15) & (np.abs(y - 6_000_040) < 15) & (cover != "none")
+    z[on] += 0.8
+    cls = np.full(len(x), 2, np.uint8)
+    if cover == "crowns":
+        crown = on & (rng.random(len(x)) < 0.7)
+        z[crown] += rng.uniform(3, 8, crown.sum())
+        cls[crown] = 5
+    return from_arrays(x, y, z, classification=cls, crs="EPSG:25832")
+
+
+@pytest.mark.parametrize(("cover", "reported"), [("crowns", False), ("bare", True)])
+def test_a_rise_where_most_pulses_ended_in_the_crowns_is_no_change(tmp_path, cover, reported):
+    from ingest.pipeline import IngestOptions
+
+    rng = np.random.default_rng(12)
+    db = tdb.open(tmp_path / "t.tdb", create=True)
+    options = IngestOptions(method="classified", objects=False)
+    ingest(_thicket(rng, cover="none", density=4.0), db, version="a", options=options)
+    ingest(_thicket(rng, cover=cover), db, version="b", options=options)
+    patch = shapely.box(500_030, 6_000_030, 500_050, 6_000_050)
+    found = [f for f in detect(db, "a", "b") if shapely.geometry.shape(f["geometry"]).intersects(patch)]
+    assert bool(found) is reported

@@ -400,3 +400,45 @@ def test_a_tile_keeps_the_lowest_and_highest_return_not_taken_for_ground_within_
     else:
         assert np.isnan(low[0]) and np.isnan(high[0])
     assert np.isnan(low[1]) and np.isnan(high[1])  # the tile beside holds none
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(0, 60), st.floats(0.0, 1.0))
+def test_a_tiles_pulses_and_the_share_taken_for_ground_are_counted(seed, n, ground_share):
+    from ingest.evidence import tile_pulses
+
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-2, 8, (n, 2))  # some fall outside the tiles asked for
+    ground = rng.random(n) < ground_share
+    xg, yg = np.array([0, 2, 4, 0], np.int64), np.array([0, 0, 0, 4], np.int64)
+    density, share = tile_pulses(xy, ground, xg, yg)
+    for k, (x, y) in enumerate(zip(xg, yg, strict=True)):
+        inside = (xy[:, 0] >= x) & (xy[:, 0] < x + 2) & (xy[:, 1] >= y) & (xy[:, 1] < y + 2)
+        if inside.any():
+            assert density[k] == pytest.approx(inside.sum() / 4.0)
+            assert share[k] == pytest.approx(ground[inside].mean())
+        else:
+            assert np.isnan(density[k]) and np.isnan(share[k])
+
+
+@pytest.mark.parametrize(("pulses", "share"), [("two returns each", 1.0), ("one return each", 0.5)])
+def test_the_ground_share_counts_each_pulse_once_by_its_last_return(tmp_path, pulses, share):
+    from ingest.pipeline import IngestOptions
+
+    g = _ground(size=30, density=2.0, seed=4)
+    canopy = g + np.array([0.0, 0.0, 12.0])
+    xyz = np.vstack([canopy, g])
+    cls = np.r_[np.full(len(g), 5, np.uint8), np.full(len(g), 2, np.uint8)]
+    if pulses == "two returns each":  # every pulse's first return in the crowns, its last on the ground
+        number, count = np.r_[np.ones(len(g)), np.full(len(g), 2)], np.full(2 * len(g), 2)
+    else:  # the crowns' returns and the ground's are pulses of their own
+        number, count = np.ones(2 * len(g)), np.ones(2 * len(g))
+    cloud = from_arrays(*xyz.T, classification=cls, return_number=number, number_of_returns=count, crs=CRS)
+    db = tdb.open(tmp_path / "s.tdb", create=True)
+    ingest(cloud, db, version="v", options=IngestOptions(method="classified", objects=False))
+    e = db.evidence("v", bbox=(4.0, 4.0, 26.0, 26.0))
+    held = np.isfinite(e.ground_share)
+    assert held.sum() > 50
+    np.testing.assert_allclose(e.ground_share[held], share, atol=1e-3)
+    pulses_per_m2 = 2.0 if pulses == "two returns each" else 4.0
+    assert np.median(e.pulses[held]) == pytest.approx(pulses_per_m2, rel=0.5)
