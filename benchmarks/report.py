@@ -914,13 +914,14 @@ def epochs_section(out: list[str]) -> None:
             )
         sparse = doc["providers"].get("sparse")
         if sparse:
+            n = sparse["same_ground_regions"]
+            area = sparse["same_ground_reported_m2"]
+            same = f"{area:,.0f} m² in {n} region{'' if n == 1 else 's'}, all of it false" if n else "no change"
             out.append(
                 f"Thinned as well, to the held-back survey's {sparse['points']:,} returns (judged as the plain "
                 "pair: the same ground), its largest region covers "
                 f"{100 * sparse['largest_region_share_of_extent']:.1f} % of the site's extent; against the whole "
-                f"2019 survey, the same ground, it reports {sparse['same_ground_reported_m2']:,.0f} m² in "
-                f"{sparse['same_ground_regions']} region{'' if sparse['same_ground_regions'] == 1 else 's'}, "
-                "all of it false."
+                f"2019 survey, the same ground, it reports {same}."
             )
         out.append("")
     out += [
