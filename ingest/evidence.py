@@ -140,11 +140,12 @@ def tile_pulses(
     grid = _TileGrid.of(xg, yg)
     cell = grid.cells(xy[:, 0], xy[:, 1])
     on = cell >= 0
-    pulses = np.bincount(cell[on], minlength=grid.size)[grid.cells_of_tiles(xg, yg)]
-    grounded = np.bincount(cell[on], weights=np.asarray(ground, bool)[on], minlength=grid.size)
+    at = grid.cells_of_tiles(xg, yg)
+    pulses = np.bincount(cell[on], minlength=grid.size)[at]
+    grounded = np.bincount(cell[on], weights=np.asarray(ground, bool)[on], minlength=grid.size)[at]
     held = pulses > 0
     density[held] = pulses[held] / LEVEL**2
-    share[held] = grounded[grid.cells_of_tiles(xg, yg)][held] / pulses[held]
+    share[held] = grounded[held] / pulses[held]
     return density, share
 
 

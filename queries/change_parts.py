@@ -128,9 +128,15 @@ def _moved_in(db: Database, job: _Part) -> MovedTiles | None:
     judged = tile_lod(db, before, after, xg, yg, level=level, lod=job.lod)
     tested, dz, moved = MovingTiles(xg, yg, lattices[0], lattices[1], judged).moved(np.arange(len(xg)))
     t = tested[moved]
-    j = judged
     return MovedTiles(
-        xg[t], yg[t], dz[moved], j.lod[t], j.layer[:, t], j.over[..., t], j.pulses[..., t], differ[t]
+        xg[t],
+        yg[t],
+        dz[moved],
+        judged.lod[t],
+        judged.layer[:, t],
+        judged.over[..., t],
+        judged.pulses[..., t],
+        differ[t],
     )
 
 

@@ -238,14 +238,15 @@ class _Grown:
     @classmethod
     def of(cls, moved: MovedTiles, at: NDArray[np.intp]) -> _Grown:
         """The moved tiles ``at``."""
-        m = moved
-        return cls(m.xg[at], m.yg[at], m.dz[at], m.lod[at], m.layer[:, at], m.over[..., at], m.pulses[..., at])
+        fields = (moved.lod[at], moved.layer[:, at], moved.over[..., at], moved.pulses[..., at])
+        return cls(moved.xg[at], moved.yg[at], moved.dz[at], *fields)
 
     @classmethod
     def judged(cls, tiles: MovingTiles, at: NDArray[np.intp], dz: NDArray[np.float64]) -> _Grown:
         """The tiles ``at`` of ``tiles``, their node height changes ``dz``."""
-        j = tiles.judged
-        return cls(tiles.xg[at], tiles.yg[at], dz, j.lod[at], j.layer[:, at], j.over[..., at], j.pulses[..., at])
+        judged = tiles.judged
+        fields = (judged.lod[at], judged.layer[:, at], judged.over[..., at], judged.pulses[..., at])
+        return cls(tiles.xg[at], tiles.yg[at], dz, *fields)
 
 
 Region = tuple[NDArray[np.intp], float, bool, float]  # members, mean dz, sure, LoD
