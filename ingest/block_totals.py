@@ -61,6 +61,7 @@ class Totals:
     evidence_tiles: int = 0
     supported: int = 0
     deep: int = 0
+    covered: int = 0
     sigma_mm: NDArray[np.int64] = field(default_factory=lambda: np.zeros(SIGMA_BINS + 1, np.int64))
     echo_test: bool = False
     peak_mib: float = 0.0  # the largest of the blocks' modelling processes
@@ -87,6 +88,7 @@ class Totals:
         self.evidence_tiles += len(r.evidence)
         self.supported += int((r.evidence.support >= MIN_SUPPORT).sum())
         self.deep += int(r.evidence.deep.sum())
+        self.covered += int(r.evidence.covered.sum())
         mm = np.minimum(np.round(r.evidence.sigma * 1000), SIGMA_BINS).astype(np.int64)
         self.sigma_mm += np.bincount(mm, minlength=SIGMA_BINS + 1)
         self.echo_test |= r.echo_test
@@ -118,10 +120,15 @@ class Totals:
             noise_m=round(self.noise_sum / max(self.points, 1), 4),
             flat_threshold_m=round(self.flat_threshold, 3),
             bounds=bounds,
-            seen_pct=round(100 * self.supported / self.evidence_tiles, 1) if self.evidence_tiles else None,
+            seen_pct=self._pct(self.supported),
             sigma_m=self._median_sigma(),
-            deep_pct=round(100 * self.deep / self.evidence_tiles, 1) if self.evidence_tiles else None,
+            deep_pct=self._pct(self.deep),
+            covered_pct=self._pct(self.covered),
         )
+
+    def _pct(self, tiles: int) -> float | None:
+        """``tiles`` as a share (%) of the 2 m tiles holding evidence."""
+        return round(100 * tiles / self.evidence_tiles, 1) if self.evidence_tiles else None
 
     def _median_sigma(self) -> float | None:
         if not self.evidence_tiles:

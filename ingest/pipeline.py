@@ -207,6 +207,7 @@ def ingest(
         seen_pct=seen_pct(result.evidence),
         sigma_m=median_sigma(result.evidence),
         deep_pct=deep_pct(result.evidence),
+        covered_pct=covered_pct(result.evidence),
     )
     params = {
         "method": str(o.method),
@@ -241,6 +242,11 @@ def seen_pct(evidence: TileEvidence) -> float | None:
 def deep_pct(evidence: TileEvidence) -> float | None:
     """Share (%) of the 2 m tiles whose surface stands over its ground returns, for :class:`VersionStats`."""
     return round(100 * evidence.deep_share(), 1) if len(evidence) else None
+
+
+def covered_pct(evidence: TileEvidence) -> float | None:
+    """Share (%) of the 2 m tiles under cover, for :class:`VersionStats`."""
+    return round(100 * evidence.covered_share(), 1) if len(evidence) else None
 
 
 def median_sigma(evidence: TileEvidence) -> float | None:

@@ -36,6 +36,7 @@ from queries.tile_change import MovingTiles, level_of_detection, split_keys, til
 from tdb.categories import NO_DATA
 from tdb.crs import check_same_horizontal
 from tdb.database import Database
+from tdb.evidence import COVERED, GROUNDED
 from tdb.geojson import feature
 from tdb.outlines import outlines
 from tdb.progress import Progress
@@ -396,18 +397,10 @@ def _seen_there(t: _Grown, members: NDArray[np.intp], mean_dz: float, lod: float
     return bool(seen.mean() >= SEEN_SHARE)
 
 
-# A region is not claimed where the survey whose surface stands higher took for ground less than
-# COVERED of its pulses (most ended in the cover) and fewer than GROUNDED of them per m²: a ground
-# filter rests its surface on the lowest return of each square metre (its seed cells), which is
-# the understorey's top wherever no pulse reached the ground there.
-COVERED = 0.5
-GROUNDED = 1.0  # pulses taken for ground per m²
-
-
 def _under_cover(pulses: NDArray[np.float64], members: NDArray[np.intp], mean_dz: float) -> bool:
     """Whether the version whose surface stands higher over a region (the later where it rose)
-    took for ground less than :data:`COVERED` of its pulses there and fewer than
-    :data:`GROUNDED` per m² (the medians over its tiles; ``pulses``: 2 × 2 × tiles, each
+    took for ground less than :data:`tdb.evidence.COVERED` of its pulses there and fewer than
+    :data:`tdb.evidence.GROUNDED` per m² (the medians over its tiles; ``pulses``: 2 × 2 × tiles, each
     version's share and pulses per m² taken for ground; tiles holding no such evidence, NaN, do
     not count).
 

@@ -61,6 +61,12 @@ MIN_SUPPORT = 0.5  # a change needs half a tile's nodes seen in each version
 DEEP = 0.1  # m: a surface this far over its ground returns rests partly on what was taken for ground
 OVER = 0.1  # m: returns not taken for ground this far over the surface stand on it (not noise in it)
 OVER_CAP = 3.0  # m: what stands higher than a wall or a thicket, no filter takes for ground
+# A tile is under cover where its survey took for ground less than COVERED of its pulses (most
+# ended in the cover) and fewer than GROUNDED of them per m²: a ground filter rests its surface on
+# the lowest return of each square metre (its seed cells), which is the understorey's top wherever
+# no pulse reached the ground there.
+COVERED = 0.5
+GROUNDED = 1.0  # pulses taken for ground per m²
 
 
 @dataclass(frozen=True)
@@ -122,6 +128,18 @@ class TileEvidence:
     def deep(self) -> NDArray[np.bool_]:
         """Whether each tile's surface stands at least :data:`DEEP` over its ground returns."""
         return self.standing >= DEEP
+
+    @property
+    def covered(self) -> NDArray[np.bool_]:
+        """Whether each tile is under cover (:data:`COVERED`, :data:`GROUNDED`; False where its
+        pulses are not held)."""
+        share = self.ground_share.astype(float)
+        with np.errstate(invalid="ignore"):
+            return (share < COVERED) & (self.pulses.astype(float) * share < GROUNDED)
+
+    def covered_share(self) -> float:
+        """Share of the tiles under cover (:attr:`covered`)."""
+        return float(self.covered.mean()) if len(self) else 0.0
 
     def deep_share(self) -> float:
         """Share of the tiles whose surface stands at least :data:`DEEP` over their ground returns."""

@@ -44,6 +44,7 @@ class VersionStats:
     seen_pct: float | None = None  # 2 m tiles whose surface rests on ground returns (tdb.evidence)
     sigma_m: float | None = None  # the median standard uncertainty of a 2 m tile's surface
     deep_pct: float | None = None  # 2 m tiles whose surface stands over its ground returns (tdb.evidence.DEEP)
+    covered_pct: float | None = None  # 2 m tiles under cover (tdb.evidence.TileEvidence.covered)
 
     def to_json(self) -> dict[str, Any]:
         """The flat JSON object stored in ``versions.stats``."""
@@ -70,6 +71,7 @@ class VersionStats:
             seen_pct=self.seen_pct,
             sigma_m=self.sigma_m,
             deep_pct=self.deep_pct,
+            covered_pct=self.covered_pct,
         )
         return out
 
@@ -99,6 +101,7 @@ class VersionStats:
             seen_pct=_float(doc.get("seen_pct")),
             sigma_m=_float(doc.get("sigma_m")),
             deep_pct=_float(doc.get("deep_pct")),
+            covered_pct=_float(doc.get("covered_pct")),
         )
 
 

@@ -58,6 +58,11 @@ def test_blocks_give_the_one_piece_model(scene_file, tmp_path):
     back = eb.at(ea.xg, ea.yg)
     assert np.mean(back.support == ea.support) >= 0.995
     assert np.mean(np.abs(back.lift - ea.lift) < 0.01) >= 0.99
+    for field in ("pulses", "ground_share"):  # each pulse counted in the block that owns it
+        assert np.mean(np.isclose(getattr(back, field), getattr(ea, field), equal_nan=True)) >= 0.999, field
+    sa, sb = db.version("whole").stats, db.version("blocks").stats
+    assert sa.covered_pct is not None and sb.covered_pct is not None
+    assert abs(sa.covered_pct - sb.covered_pct) <= 0.1
     # the same trees and buildings, each once: objects belong to the block their top or centroid is in
     ta, tb = db.trees("whole"), db.trees("blocks")
     tops_b = {(round(t.x, 3), round(t.y, 3)) for t in tb}

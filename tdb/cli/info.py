@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from tdb.cli.options import DATABASE, input_options
-from tdb.evidence import DEEP
+from tdb.evidence import DEEP, GROUNDED
 from tdb.geojson import finite
 from tdb.tiles import LEVELS
 
@@ -95,6 +95,12 @@ def _database_info(path: Path | str, as_json: bool) -> None:
             click.echo(
                 f"    surface may stand {DEEP} m or more over the ground its returns saw in {s.deep_pct} % of the "
                 "2 m tiles (vegetation taken for ground: rises there are cut)"
+            )
+        if s.covered_pct is not None:  # versions from before the pulses were kept have none
+            click.echo(
+                f"    under cover in {s.covered_pct} % of the 2 m tiles (most pulses ended above what was taken "
+                f"for ground, and fewer than {GROUNDED:g} per m² reached it: no change is claimed where this "
+                "version's surface stands higher there)"
             )
         click.echo(f"    trees {objects[v.name][0]:,}, buildings {objects[v.name][1]:,}")
         if "exclude_classes" in v.params:  # versions from before the option have no record
