@@ -369,18 +369,24 @@ def _walled(rng, *, wall: str):
     return from_arrays(x, y, z, classification=cls, crs="EPSG:25832")
 
 
-@pytest.mark.parametrize(("before", "reported"), [("object", False), ("none", True)])
-def test_a_wall_one_survey_saw_and_did_not_take_for_ground_is_no_change(tmp_path, before, reported):
+def _changes_over(path, surveys, box):
+    """Two surveys stored as "a" and "b" (their providers' classes say what each took for ground),
+    and the regions their diff reports over ``box``."""
     from ingest.pipeline import IngestOptions
 
-    rng = np.random.default_rng(9)
-    db = tdb.open(tmp_path / "w.tdb", create=True)
-    # the providers' classes say what each survey took for ground
+    db = tdb.open(path, create=True)
     options = IngestOptions(method="classified", objects=False)
-    ingest(_walled(rng, wall=before), db, version="a", options=options)
-    ingest(_walled(rng, wall="ground"), db, version="b", options=options)
-    wall = shapely.box(500_039, 6_000_010, 500_041, 6_000_070)
-    found = [f for f in detect(db, "a", "b") if shapely.geometry.shape(f["geometry"]).intersects(wall)]
+    for name, cloud in zip(("a", "b"), surveys, strict=True):
+        ingest(cloud, db, version=name, options=options)
+    area = shapely.box(*box)
+    return db, [f for f in detect(db, "a", "b") if shapely.geometry.shape(f["geometry"]).intersects(area)]
+
+
+@pytest.mark.parametrize(("before", "reported"), [("object", False), ("none", True)])
+def test_a_wall_one_survey_saw_and_did_not_take_for_ground_is_no_change(tmp_path, before, reported):
+    rng = np.random.default_rng(9)
+    surveys = (_walled(rng, wall=before), _walled(rng, wall="ground"))
+    _, found = _changes_over(tmp_path / "w.tdb", surveys, (500_039, 6_000_010, 500_041, 6_000_070))
     assert bool(found) is reported
 
 
@@ -403,15 +409,9 @@ def _thicket(rng, *, cover: str, density: float = 1.0):
 
 @pytest.mark.parametrize(("cover", "reported"), [("crowns", False), ("bare", True)])
 def test_a_rise_where_most_pulses_ended_in_the_crowns_is_no_change(tmp_path, cover, reported):
-    from ingest.pipeline import IngestOptions
-
     rng = np.random.default_rng(12)
-    db = tdb.open(tmp_path / "t.tdb", create=True)
-    options = IngestOptions(method="classified", objects=False)
-    ingest(_thicket(rng, cover="none", density=4.0), db, version="a", options=options)
-    ingest(_thicket(rng, cover=cover), db, version="b", options=options)
-    patch = shapely.box(500_030, 6_000_030, 500_050, 6_000_050)
-    found = [f for f in detect(db, "a", "b") if shapely.geometry.shape(f["geometry"]).intersects(patch)]
+    surveys = (_thicket(rng, cover="none", density=4.0), _thicket(rng, cover=cover))
+    db, found = _changes_over(tmp_path / "t.tdb", surveys, (500_030, 6_000_030, 500_050, 6_000_050))
     assert bool(found) is reported
     # the 30 m square is a seventh of the 80 m survey; a 2 m tile there holds four pulses, and
     # two of them on the understorey (three in ten do) puts it out of cover: about two in three are in
