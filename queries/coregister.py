@@ -55,6 +55,7 @@ CORRELATION = 10.0  # m: distance over which ground-model errors are correlated
 SIGNIFICANCE = 3.0  # a shift applies in ``auto`` where it exceeds this many standard errors
 OUTLIER_NMADS = 3.0  # stable cells lie within this many NMADs of the median difference
 MIN_SLOPE, MAX_SLOPE = 3.0, 70.0  # degrees: slopes that carry a horizontal shift
+SLOPE_SCALE = 1.0  # cells: the Gaussian σ over which a cell's slope is judged to carry a shift
 STEP = 0.01  # m: the horizontal iteration stops when its step is shorter
 MAX_ITERATIONS = 10
 FIT_CELLS = 200_000  # most cells the horizontal fit reads
@@ -509,6 +510,17 @@ def _independent(cells: int, cell: float) -> float:
     return float(max(1.0, min(cells, cells * cell * cell / CORRELATION**2)))
 
 
+def _smoothed_slope(surface: NDArray[np.float64], cell: float) -> NDArray[np.float64]:
+    """The inclination (rise over run) of ``surface`` smoothed by a Gaussian of :data:`SLOPE_SCALE`
+    cells, its holes (NaN) left out of the weights and kept as holes."""
+    held = np.isfinite(surface)
+    weight = ndimage.gaussian_filter(held.astype(float), SLOPE_SCALE)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        smooth = ndimage.gaussian_filter(np.where(held, surface, 0.0), SLOPE_SCALE) / weight
+    d_row, d_col = np.gradient(np.where(held, smooth, np.nan), cell)
+    return np.hypot(np.asarray(d_row), np.asarray(d_col))
+
+
 def _nuth_kaab(before: NDArray[np.float64], after: NDArray[np.float64], cell: float) -> tuple[float, float, float]:
     """Horizontal shift (dx, dy) of ``after`` from ``before`` and its standard error (m).
 
@@ -519,7 +531,11 @@ def _nuth_kaab(before: NDArray[np.float64], after: NDArray[np.float64], cell: fl
     gy = -np.asarray(d_row)  # rows run north to south
     gx = np.asarray(gx)
     tan = np.hypot(gx, gy)
-    sloped = (tan > np.tan(np.radians(MIN_SLOPE))) & (tan < np.tan(np.radians(MAX_SLOPE)))
+    # A cell carries a shift where the terrain around it is sloped, not its noise alone: on gentle
+    # ground the few cells whose own gradient passes the bound are those where the noise adds to
+    # the slope, and their differences lean the fit along it (a 2 % plane read a 4 m shift).
+    least = np.tan(np.radians(MIN_SLOPE))
+    sloped = (_smoothed_slope(before, cell) > least) & (tan > least) & (tan < np.tan(np.radians(MAX_SLOPE)))
     cells = np.flatnonzero(np.isfinite(before).ravel())
     share = min(1.0, FIT_CELLS / max(len(cells), 1))
     if share < 1.0:

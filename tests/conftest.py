@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from hypothesis import settings
 
@@ -82,3 +83,22 @@ def two_patches(cloud: Any, gap: float) -> Any:
         number_of_returns=twice(cloud.number_of_returns),
         intensity=None,
     )
+
+
+def thicket(rng: Any, *, cover: str, density: float = 1.0) -> Any:
+    """80 m of ground sloping 2 % at ``density`` pulses/m² whose middle 30 m square stands 0.8 m
+    higher in what was taken for ground (class 2): left bare (``cover`` "bare", a fill), or under
+    crowns (``cover`` "crowns") that stop seven pulses in ten, the rest ending on the
+    understorey's top; "none": no higher."""
+    from tdb.cloud import from_arrays
+
+    x, y = rng.uniform(0, 80, (2, int(80 * 80 * density))) + np.array([[500_000.0], [6_000_000.0]])
+    z = 50 + 0.02 * (x - 500_000) + rng.normal(0, 0.03, len(x))
+    on = (np.abs(x - 500_040) < 15) & (np.abs(y - 6_000_040) < 15) & (cover != "none")
+    z[on] += 0.8
+    cls = np.full(len(x), 2, np.uint8)
+    if cover == "crowns":
+        crown = on & (rng.random(len(x)) < 0.7)
+        z[crown] += rng.uniform(3, 8, crown.sum())
+        cls[crown] = 5
+    return from_arrays(x, y, z, classification=cls, crs="EPSG:25832")
