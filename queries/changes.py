@@ -18,6 +18,7 @@ filters that match in one version and not the other.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -172,8 +173,12 @@ def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
     shift: Shift | None = None,
     progress: Progress | None = None,
     workers: int | None = None,
+    unclaimed: list[Unclaimed] | None = None,
 ) -> list[dict[str, Any]]:
     """Changed regions between ``before`` and ``after`` as GeoJSON feature dicts.
+
+    ``unclaimed``, where given, receives the regions whose surfaces moved but whose change the
+    ground evidence does not support (:class:`Unclaimed`), for a user to see what was held back.
 
     ``shift`` (:func:`queries.coregister.coregister`) aligns ``after`` to ``before`` first, and
     the level of detection is then at least what the residual on stable ground allows. An area
@@ -190,7 +195,15 @@ def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
     parts = parts_for(db, before, level=level, bbox=bbox)
     if not parts:
         return _detect_at_once(
-            db, before, after, level=level, bbox=bbox, min_tiles=min_tiles, shift=shift, lod=lod
+            db,
+            before,
+            after,
+            level=level,
+            bbox=bbox,
+            min_tiles=min_tiles,
+            shift=shift,
+            lod=lod,
+            unclaimed=unclaimed,
         )
     moved = moved_by_parts(
         db,
@@ -220,7 +233,7 @@ def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
         lattices = {name: tile_lattice(db, name, level, t.xg[idx], t.yg[idx]) for name in (before, after)}
         if shift is not None and shift.applied:
             lattices[after] = shifted_lattice(lattices[after], shift)
-        out += _features(db, (before, after), batch, t, lattices, level=level)
+        out += _features(db, (before, after), batch, t, lattices, level=level, unclaimed=unclaimed)
     return out
 
 
@@ -263,6 +276,7 @@ def _detect_at_once(  # noqa: PLR0913 (the two versions, where, and how)
     min_tiles: int,
     shift: Shift | None,
     lod: float,
+    unclaimed: list[Unclaimed] | None,
 ) -> list[dict[str, Any]]:
     xg, yg, c1, c2 = shared_tiles(db, before, after, level=level, bbox=bbox)
     if len(xg) == 0:
@@ -290,9 +304,8 @@ def _detect_at_once(  # noqa: PLR0913 (the two versions, where, and how)
     grown, dz = _grow(tiles, valid, tested, dz, moved, seeds, level)
     from_strong = np.isin(grown, first[np.concatenate(strong)]) if strong else np.zeros(len(grown), bool)
     t = _Grown.judged(tiles, grown, dz)
-    return _features(
-        db, (before, after), _sure_regions(t, from_strong, level, min_tiles), t, lattices, level=level
-    )
+    regions = _sure_regions(t, from_strong, level, min_tiles)
+    return _features(db, (before, after), regions, t, lattices, level=level, unclaimed=unclaimed)
 
 
 def _seeds(t: _Grown, level: int, min_tiles: int) -> tuple[list[NDArray[np.intp]], list[NDArray[np.intp]]]:
@@ -334,9 +347,11 @@ def _features(
     lattices: dict[str, NodeLattice],
     *,
     level: int,
+    unclaimed: list[Unclaimed] | None = None,
 ) -> list[dict[str, Any]]:
     """The regions as typed GeoJSON features: those that are sure, or where a closed form came
-    or went, and whose higher surface lies in no layer thicker than their LoD."""
+    or went, and whose change the ground evidence supports (:func:`_doubt`); the others that
+    pass the first test go to ``unclaimed`` where it is given."""
     if not regions:
         return []
     before, after = versions
@@ -346,13 +361,13 @@ def _features(
     for (members, mean_dz, sure, region_lod), was, now in zip(regions, found[before], found[after]):
         if not sure and not _closed_form_changed(was, now, mean_dz):
             continue
-        if (
-            _under_a_layer(t.layer, members, mean_dz, region_lod)
-            or _seen_there(t, members, mean_dz, region_lod)
-            or _under_cover(t.pulses, members, mean_dz)
-        ):
-            continue
         x, y = t.xg[members], t.yg[members]
+        doubt = _doubt(t, members, mean_dz, region_lod)
+        if doubt is not None:
+            if unclaimed is not None:
+                geom = outline(x, y, t.dz[members], t.lod[members], mean_dz, level=level)
+                unclaimed.append(Unclaimed(geom, round(mean_dz, 3), doubt))
+            continue
         geom = outline(x, y, t.dz[members], t.lod[members], mean_dz, level=level)
         compact = elongation(x.astype(float), y.astype(float), level=level) < LINE_ELONGATION
         props = {
@@ -365,6 +380,35 @@ def _features(
         }
         out.append(feature(geom, props))
     return out
+
+
+class Doubt(StrEnum):
+    """Why the ground evidence does not support a region's change (:func:`_doubt`)."""
+
+    LAYER = "under a layer taken for ground"
+    SEEN = "seen by the other survey, not taken for ground"
+    COVER = "under a cover the survey standing higher did not see through"
+
+
+@dataclass(frozen=True)
+class Unclaimed:
+    """A region whose surfaces moved but whose change is not claimed: its outline, its mean
+    height change (m) and why."""
+
+    geometry: shapely.Geometry
+    dz: float
+    why: Doubt
+
+
+def _doubt(t: _Grown, members: NDArray[np.intp], mean_dz: float, lod: float) -> Doubt | None:
+    """Why the ground evidence does not support the change of a region (None where it does)."""
+    if _under_a_layer(t.layer, members, mean_dz, lod):
+        return Doubt.LAYER
+    if _seen_there(t, members, mean_dz, lod):
+        return Doubt.SEEN
+    if _under_cover(t.pulses, members, mean_dz):
+        return Doubt.COVER
+    return None
 
 
 def _under_a_layer(layers: NDArray[np.float64], members: NDArray[np.intp], mean_dz: float, lod: float) -> bool:

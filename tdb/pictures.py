@@ -56,6 +56,7 @@ KIND_COLOURS = {
     "building removed": (0.4, 0.4, 0.4),
 }
 LOWERED, RAISED = (0.8, 0.2, 0.1), (0.1, 0.35, 0.8)
+HELD_BACK = (0.45, 0.45, 0.45)  # regions that moved but are not claimed
 
 
 def category_colours() -> NDArray[np.float64]:
@@ -203,13 +204,13 @@ def _map_frame(ax: Any, crs: Any, bounds: tuple[float, float, float, float]) -> 
 
 
 def _legend(ax: Any, entries: list[tuple[str, Any, str]], *, title: str) -> None:
-    """A legend of (label, colour, 'line' | 'patch') entries, outside the map on the right."""
+    """A legend of (label, colour, 'line' | 'dashed' | 'patch') entries, outside the map on the right."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     handles = [
-        Line2D([0], [0], color=colour, lw=2)
-        if kind == "line"
+        Line2D([0], [0], color=colour, lw=2, ls="--" if kind == "dashed" else "-")
+        if kind in ("line", "dashed")
         else Patch(facecolor=colour, edgecolor="0.3", lw=0.5)
         for _label, colour, kind in entries
     ]
@@ -327,7 +328,7 @@ def _draw_objects(ax: Any, trees: list[Any], buildings: list[Any]) -> list[tuple
     return entries
 
 
-def change_map(
+def change_map(  # noqa: PLR0913 (the picture, its regions, and what goes under and beside them)
     path: str | os.PathLike[str],
     features: list[dict[str, Any]],
     *,
@@ -336,11 +337,13 @@ def change_map(
     lod: float | None = None,
     crs: Any = None,
     bounds: tuple[float, float, float, float] | None = None,
+    held_back: list[Any] | None = None,
 ) -> None:
     """Changed regions labelled with their kind: filled by the sign of their height change, or
     outlined over the DEM of difference ``dod`` where one is given (shades within ``lod`` are white).
     ``crs`` names the coordinates where there is no ``dod``; ``bounds`` default to the DEM's or the
-    regions' own. A second line of ``title`` (the co-registration) goes under the count."""
+    regions' own. A second line of ``title`` (the co-registration) goes under the count.
+    ``held_back``: outlines (shapely) of regions that moved but are not claimed, dashed grey."""
     import shapely
     from matplotlib.colors import TwoSlopeNorm
 
@@ -371,12 +374,17 @@ def change_map(
             fontsize=7,
             bbox={"facecolor": "white", "alpha": 0.6, "lw": 0, "pad": 1},
         )
+    for geom in held_back or []:
+        for poly in getattr(geom, "geoms", [geom]):
+            ax.plot(*poly.exterior.xy, color=HELD_BACK, lw=0.8, ls="--")
     _map_frame(ax, dod.crs if dod is not None and dod.crs is not None else crs, box)
     entries: list[tuple[str, tuple[float, ...], str]] = (
         [("lowered", (*LOWERED, 0.6), "patch"), ("raised", (*RAISED, 0.6), "patch")]
         if dod is None
         else [("changed region (labelled by kind)", (0.0, 0.0, 0.0), "line")]
     )
+    if held_back:
+        entries.append(("moved, not claimed (the ground evidence\ndoes not support it)", HELD_BACK, "dashed"))
     _legend(ax, entries, title="changes")
     head, _, below = title.partition("\n")
     head = f"{head}: {len(features)} changed region(s)"

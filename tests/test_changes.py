@@ -17,11 +17,12 @@ import tdb
 from ingest.pipeline import ingest
 from ingest.synth import apply_changes, make_scene, sample
 from ingest.synth.scene import Feature
-from queries.changes import _kind, detect, level_of_detection, outline
+from queries.changes import Doubt, Unclaimed, _kind, detect, level_of_detection, outline
 from queries.tile_change import may_move as _may_move
 from queries.tile_change import rebuilt_surface as _surface
 from tdb.cli import main
 from tdb.cloud import from_arrays
+from tests.conftest import thicket
 
 
 @pytest.mark.slow
@@ -371,7 +372,7 @@ def _walled(rng, *, wall: str):
 
 def _changes_over(path, surveys, box):
     """Two surveys stored as "a" and "b" (their providers' classes say what each took for ground),
-    and the regions their diff reports over ``box``."""
+    the regions their diff reports over ``box``, and why those it holds back there are not claimed."""
     from ingest.pipeline import IngestOptions
 
     db = tdb.open(path, create=True)
@@ -379,42 +380,43 @@ def _changes_over(path, surveys, box):
     for name, cloud in zip(("a", "b"), surveys, strict=True):
         ingest(cloud, db, version=name, options=options)
     area = shapely.box(*box)
-    return db, [f for f in detect(db, "a", "b") if shapely.geometry.shape(f["geometry"]).intersects(area)]
+    held: list[Unclaimed] = []
+    found = [
+        f for f in detect(db, "a", "b", unclaimed=held) if shapely.geometry.shape(f["geometry"]).intersects(area)
+    ]
+    return db, found, {h.why for h in held if h.geometry.intersects(area)}
 
 
 @pytest.mark.parametrize(("before", "reported"), [("object", False), ("none", True)])
 def test_a_wall_one_survey_saw_and_did_not_take_for_ground_is_no_change(tmp_path, before, reported):
     rng = np.random.default_rng(9)
     surveys = (_walled(rng, wall=before), _walled(rng, wall="ground"))
-    _, found = _changes_over(tmp_path / "w.tdb", surveys, (500_039, 6_000_010, 500_041, 6_000_070))
+    _, found, why = _changes_over(tmp_path / "w.tdb", surveys, (500_039, 6_000_010, 500_041, 6_000_070))
     assert bool(found) is reported
-
-
-def _thicket(rng, *, cover: str, density: float = 1.0):
-    """80 m of ground sloping 2 % at ``density`` pulses/m² whose middle 30 m square stands 0.8 m
-    higher in what was taken for ground (class 2): left bare (``cover`` "bare", a fill), or under
-    crowns (``cover`` "crowns") that stop seven pulses in ten, the rest ending on the
-    understorey's top; "none": no higher."""
-    x, y = rng.uniform(0, 80, (2, int(80 * 80 * density))) + np.array([[500_000.0], [6_000_000.0]])
-    z = 50 + 0.02 * (x - 500_000) + rng.normal(0, 0.03, len(x))
-    on = (np.abs(x - 500_040) < 15) & (np.abs(y - 6_000_040) < 15) & (cover != "none")
-    z[on] += 0.8
-    cls = np.full(len(x), 2, np.uint8)
-    if cover == "crowns":
-        crown = on & (rng.random(len(x)) < 0.7)
-        z[crown] += rng.uniform(3, 8, crown.sum())
-        cls[crown] = 5
-    return from_arrays(x, y, z, classification=cls, crs="EPSG:25832")
+    assert why == (set() if reported else {Doubt.SEEN})
 
 
 @pytest.mark.parametrize(("cover", "reported"), [("crowns", False), ("bare", True)])
 def test_a_rise_where_most_pulses_ended_in_the_crowns_is_no_change(tmp_path, cover, reported):
     rng = np.random.default_rng(12)
-    surveys = (_thicket(rng, cover="none", density=4.0), _thicket(rng, cover=cover))
-    db, found = _changes_over(tmp_path / "t.tdb", surveys, (500_030, 6_000_030, 500_050, 6_000_050))
+    surveys = (thicket(rng, cover="none", density=4.0), thicket(rng, cover=cover))
+    db, found, why = _changes_over(tmp_path / "t.tdb", surveys, (500_030, 6_000_030, 500_050, 6_000_050))
     assert bool(found) is reported
+    assert why == (set() if reported else {Doubt.COVER})
     # the 30 m square is a seventh of the 80 m survey; a 2 m tile there holds four pulses, and
     # two of them on the understorey (three in ten do) puts it out of cover: about two in three are in
     covered = db.version("b").stats.covered_pct
     assert covered is not None
     assert (6 < covered < 14) if cover == "crowns" else covered < 1, covered
+
+
+def test_tdb_diff_says_what_moved_and_is_not_claimed_and_draws_it(tmp_path):
+    rng = np.random.default_rng(12)
+    surveys = (thicket(rng, cover="none", density=4.0), thicket(rng, cover="crowns"))
+    _changes_over(tmp_path / "t.tdb", surveys, (500_030, 6_000_030, 500_050, 6_000_050))
+    png = tmp_path / "c.png"
+    r = CliRunner().invoke(main, ["diff", "a", "b", "--db", str(tmp_path / "t.tdb"), "--png", str(png)])
+    assert r.exit_code == 0, r.output
+    line = next(s for s in r.stderr.splitlines() if s.startswith("not claimed:"))
+    assert str(Doubt.COVER) in line
+    assert png.stat().st_size > 0

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -10,6 +12,9 @@ from tdb.cli.options import bbox_option, db_option, level_option, workers_option
 from tdb.cli.output import check_files, check_output, emit, output_options
 from tdb.crs import check_same_horizontal, height_reference_note
 from tdb.options import Coregistration
+
+if TYPE_CHECKING:  # the library is imported when the command runs
+    from queries.changes import Unclaimed
 
 PICTURE = 4_000_000  # most cells of a change map's background
 
@@ -86,8 +91,19 @@ def command(
         shift = align(db, before, after, level=level, bbox=bbox, method=coregister)
         if shift.method is not Coregistration.NONE:
             click.echo(f"co-registration ({shift.method}): {shift.describe()}", err=True)
+        held: list[Unclaimed] = []
         with Bars(unit="part") as bars:
-            found = detect(db, before, after, level=level, bbox=bbox, shift=shift, progress=bars, workers=workers)
+            found = detect(
+                db,
+                before,
+                after,
+                level=level,
+                bbox=bbox,
+                shift=shift,
+                progress=bars,
+                workers=workers,
+                unclaimed=held,
+            )
         crs = db.crs(after)
         lod = level_of_detection(db, before, after, shift=shift)
         if dod:
@@ -108,6 +124,8 @@ def command(
         append=append,
         members={"coregistration": shift.to_json()},
     )
+    if held:
+        click.echo(_held_back(held), err=True)
     if dod:
         assert grid is not None  # made above whenever --dod is given
         from tdb.geotiff import write_geotiff
@@ -124,5 +142,17 @@ def command(
         from tdb.pictures import change_map
 
         aligned = "" if shift.method is Coregistration.NONE else f"\n{shift.title()}"
-        change_map(png, found, title=f"{before} → {after}, {level} m tiles{aligned}", dod=grid, lod=lod, crs=crs)
+        title = f"{before} → {after}, {level} m tiles{aligned}"
+        change_map(png, found, title=title, dod=grid, lod=lod, crs=crs, held_back=[h.geometry for h in held])
         click.echo(f"change map → {png}", err=True)
+
+
+def _held_back(held: list[Unclaimed]) -> str:
+    """One line on the regions that moved but whose change is not claimed."""
+    why = Counter(str(h.why) for h in held)
+    reasons = "; ".join(f"{n} {reason}" for reason, n in why.most_common())
+    area = sum(h.geometry.area for h in held)
+    return (
+        f"not claimed: {len(held)} more region(s) moved, {area:,.0f} m² in all, "
+        f"where the ground evidence does not support a change ({reasons})"
+    )
