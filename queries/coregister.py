@@ -61,6 +61,9 @@ MAX_ITERATIONS = 10
 FIT_CELLS = 200_000  # most cells the horizontal fit reads
 SAMPLED_SHARE = 1.0  # the surfaces are rebuilt over at least this many times FIT_CELLS cells
 MIN_STABLE = 50  # stable cells needed for any estimate
+# The estimator's revision, part of a stored shift's key: a shift stored by an earlier one is
+# estimated again rather than reused.
+ESTIMATOR = 2
 SAMPLE = 50_000  # cells a spread is measured on
 GRID_CELLS = 4_000_000  # most cells of the grid the shift is estimated on (coarser over large areas)
 GRID_CELL = 1.0  # m: the finest cell it is estimated on; decimetre shifts need no finer grid
@@ -148,9 +151,7 @@ class Shift:
 
     def describe(self) -> str:
         """One line for a person: the shift, its uncertainty, what applies and the residual."""
-        parts = []
-        parts.append(f"dx {self.dx:+.3f} m, dy {self.dy:+.3f} m (± {self.sigma_xy:.3f})")
-        parts.append(f"dz {self.dz:+.3f} m (± {self.sigma_z:.3f})")
+        parts = [self._plan(3), f"dz {self.dz:+.3f} m (± {self.sigma_z:.3f})"]
         applied = [name for name, on in (("horizontal", self.horizontal), ("vertical", self.vertical)) if on]
         return (
             f"{', '.join(parts)}; applied: {' and '.join(applied) or 'none'}; {self._spread()}; "
@@ -161,10 +162,19 @@ class Shift:
         """The shift in a few words, for a map's title."""
         applied = "".join(name for name, on in (("xy", self.horizontal), ("z", self.vertical)) if on)
         return (
-            f"shift dx {self.dx:+.2f}, dy {self.dy:+.2f} (± {self.sigma_xy:.2f}), dz {self.dz:+.2f} "
+            f"shift {self._plan(2)}, dz {self.dz:+.2f} "
             f"(± {self.sigma_z:.2f}) m, {'applied: ' + applied if applied else 'not applied'}; "
             f"NMAD on stable ground {self._residual():.3f} m"
         )
+
+    def _plan(self, decimals: int) -> str:
+        """The horizontal shift and its uncertainty, or why there is none."""
+        if self.method is Coregistration.VERTICAL:
+            return "dx, dy not estimated"
+        if not np.isfinite(self.sigma_xy):
+            return "dx, dy not found (too little sloped stable ground)"
+        d = decimals
+        return f"dx {self.dx:+.{d}f} m, dy {self.dy:+.{d}f} m (± {self.sigma_xy:.{d}f})"
 
     def _residual(self) -> float:
         """The residual spread; records written before it was kept hold only the supported one."""
@@ -205,7 +215,8 @@ def coregister(
     m = parse(Coregistration, method)
     if m is Coregistration.NONE:
         return Shift(method=m)
-    setting = f"{m} level {level} " + ("all" if bbox is None else ",".join(f"{v:.3f}" for v in bbox))
+    where = "all" if bbox is None else ",".join(f"{v:.3f}" for v in bbox)
+    setting = f"{m} level {level} {where} estimator {ESTIMATOR}"
     stored = db.coregistration(before, after, setting) if reuse else None
     if stored is not None:
         return Shift.from_json(stored)

@@ -193,9 +193,10 @@ def test_an_offset_resurvey_reads_as_the_same_changes_once_aligned(tmp_path):
         module.estimate_shift = original
     assert np.allclose([again.dx, again.dy, again.dz, again.nmad], [s.dx, s.dy, s.dz, s.nmad], atol=1e-4)
     assert (again.horizontal, again.vertical, again.method) == (s.horizontal, s.vertical, s.method)
-    assert db.coregistration("a", "b_moved", "auto level 2 all") is not None
+    key = f"auto level 2 all estimator {module.ESTIMATOR}"
+    assert db.coregistration("a", "b_moved", key) is not None
     ingest(moved, db, version="b_moved", replace=True)
-    assert db.coregistration("a", "b_moved", "auto level 2 all") is None
+    assert db.coregistration("a", "b_moved", key) is None
 
 
 def test_a_note_where_heights_may_not_share_a_reference():
