@@ -420,3 +420,8 @@ def test_tdb_diff_says_what_moved_and_is_not_claimed_and_draws_it(tmp_path):
     line = next(s for s in r.stderr.splitlines() if s.startswith("not claimed:"))
     assert str(Doubt.COVER) in line
     assert png.stat().st_size > 0
+    held = json.loads(r.stdout)["not_claimed"]  # beside the changes, in the GeoJSON
+    assert [f["properties"]["why"] for f in held] == [str(Doubt.COVER)]
+    assert shapely.geometry.shape(held[0]["geometry"]).intersects(
+        shapely.box(500_030, 6_000_030, 500_050, 6_000_050)
+    )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections import Counter
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -122,7 +122,7 @@ def command(
         layer=layer or "changes",
         noun="changed region(s)",
         append=append,
-        members={"coregistration": shift.to_json()},
+        members={"coregistration": shift.to_json(), "not_claimed": [_as_feature(h) for h in held]},
     )
     if held:
         click.echo(_held_back(held), err=True)
@@ -156,3 +156,10 @@ def _held_back(held: list[Unclaimed]) -> str:
         f"not claimed: {len(held)} more region(s) moved, {area:,.0f} m² in all, "
         f"where the ground evidence does not support a change ({reasons})"
     )
+
+
+def _as_feature(held: Unclaimed) -> dict[str, Any]:
+    """A region not claimed as a GeoJSON feature: its outline, mean height change, area and why."""
+    from tdb.geojson import feature
+
+    return feature(held.geometry, {"dz": held.dz, "area": round(held.geometry.area, 1), "why": str(held.why)})
