@@ -425,3 +425,9 @@ def test_tdb_diff_says_what_moved_and_is_not_claimed_and_draws_it(tmp_path):
     assert shapely.geometry.shape(held[0]["geometry"]).intersects(
         shapely.box(500_030, 6_000_030, 500_050, 6_000_050)
     )
+    gpkg = tmp_path / "c.gpkg"  # and beside the changes' layer in a GeoPackage
+    args = ["diff", "a", "b", "--db", str(tmp_path / "t.tdb"), "--format", "gpkg", "--out", str(gpkg)]
+    assert CliRunner().invoke(main, args).exit_code == 0
+    layers = {name for name, _ in pyogrio.list_layers(gpkg)}
+    assert layers == {"changes", "changes_not_claimed"}
+    assert pyogrio.read_info(gpkg, layer="changes_not_claimed")["features"] == 1

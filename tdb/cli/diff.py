@@ -114,6 +114,7 @@ def command(
             )
         else:
             grid = None
+    not_claimed = [_as_feature(h) for h in held]
     emit(
         found,
         fmt=fmt,
@@ -122,7 +123,8 @@ def command(
         layer=layer or "changes",
         noun="changed region(s)",
         append=append,
-        members={"coregistration": shift.to_json(), "not_claimed": [_as_feature(h) for h in held]},
+        members={"coregistration": shift.to_json(), "not_claimed": not_claimed},
+        side_layers={f"{layer or 'changes'}_not_claimed": not_claimed},
     )
     if held:
         click.echo(_held_back(held), err=True)

@@ -66,16 +66,20 @@ def emit(
     noun: str,
     append: bool = False,
     members: dict[str, Any] | None = None,
+    side_layers: dict[str, list[dict[str, Any]]] | None = None,
 ) -> None:
     """Write ``features`` in ``fmt`` to ``out`` (or stdout) and say on stderr what went where;
-    GeoJSON carries ``members`` beside the features."""
+    GeoJSON carries ``members`` beside the features, a GeoPackage the ``side_layers`` (name →
+    features) beside its layer."""
     kind = parse(OutputFormat, fmt)
     if kind is OutputFormat.GPKG:
         from tdb.geopackage import write_geopackage
 
         assert out is not None  # check_output ran first
-        write_geopackage(out, {layer: features}, crs=crs, append=append)
-        click.echo(f"{len(features)} {noun} → {out}, layer {layer}", err=True)
+        side = {name: f for name, f in (side_layers or {}).items() if f}
+        write_geopackage(out, {layer: features, **side}, crs=crs, append=append)
+        beside = "".join(f", {len(f)} more in layer {name}" for name, f in side.items())
+        click.echo(f"{len(features)} {noun} → {out}, layer {layer}{beside}", err=True)
         return
     body = render(features, kind, crs, members=members)
     if out is None:
