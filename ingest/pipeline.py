@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ingest.block_size import block_bytes, check_fits
 from ingest.dtm import DEFAULT_RESOLUTION, dense_model
@@ -25,7 +26,7 @@ from tdb.classes import NOISE, parse_classes, user_classes
 from tdb.cloud import PointCloud
 from tdb.database import Database, Version, VersionInfo, check_version_name
 from tdb.errors import InputError, Remedy, VersionExistsError
-from tdb.evidence import TileEvidence
+from tdb.evidence import MIN_SUPPORT, TileEvidence
 from tdb.kdtree import plan_tree
 from tdb.options import GroundMethod, LabelScheme, parse
 from tdb.progress import Progress, or_silent
@@ -204,10 +205,10 @@ def ingest(
         noise_m=round(result.noise, 4),
         flat_threshold_m=round(result.flat_threshold, 3),
         bounds=result.dtm.bounds,
-        seen_pct=seen_pct(result.evidence),
+        seen_pct=tiles_pct(result.evidence.support >= MIN_SUPPORT),
         sigma_m=median_sigma(result.evidence),
-        deep_pct=deep_pct(result.evidence),
-        covered_pct=covered_pct(result.evidence),
+        deep_pct=tiles_pct(result.evidence.deep),
+        covered_pct=tiles_pct(result.evidence.covered),
     )
     params = {
         "method": str(o.method),
@@ -234,19 +235,10 @@ def ingest(
     )
 
 
-def seen_pct(evidence: TileEvidence) -> float | None:
-    """Share (%) of the 2 m tiles whose surface rests on ground returns, for :class:`VersionStats`."""
-    return round(100 * evidence.supported_share(), 1) if len(evidence) else None
-
-
-def deep_pct(evidence: TileEvidence) -> float | None:
-    """Share (%) of the 2 m tiles whose surface stands over its ground returns, for :class:`VersionStats`."""
-    return round(100 * evidence.deep_share(), 1) if len(evidence) else None
-
-
-def covered_pct(evidence: TileEvidence) -> float | None:
-    """Share (%) of the 2 m tiles under cover, for :class:`VersionStats`."""
-    return round(100 * evidence.covered_share(), 1) if len(evidence) else None
+def tiles_pct(tiles: NDArray[np.bool_]) -> float | None:
+    """Share (%) of the 2 m tiles marked in ``tiles`` (their evidence's support, depth or cover),
+    for :class:`VersionStats`; None where no tile holds evidence."""
+    return round(100 * float(tiles.mean()), 1) if len(tiles) else None
 
 
 def median_sigma(evidence: TileEvidence) -> float | None:

@@ -20,7 +20,7 @@ from scipy.sparse.csgraph import connected_components
 from queries.coregister import Shift, shifted_lattice
 from queries.grids import shared_tiles
 from queries.parts import Box, clipped, holds
-from queries.tile_change import MovingTiles, tile_lattice, tile_lod
+from queries.tile_change import MovingTiles, Sides, tile_lattice, tile_lod
 from tdb.categories import NO_DATA
 from tdb.database import Database
 from tdb.progress import Progress, or_silent
@@ -33,44 +33,35 @@ NEIGHBOURS = np.array([(di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di 
 @dataclass(frozen=True)
 class MovedTiles:
     """The tiles of a level whose surface moved beyond their level of detection: lower-left
-    corners, the height change at their 3 × 3 nodes (tiles × 9), their LoD, the layer each
-    version's surface lies in (2 × tiles), its returns not taken for ground and its pulses taken
-    for ground (each 2 × 2 × tiles, :class:`queries.tile_change.TileJudgement`),
-    and whether their category differs (the tiles a change starts from)."""
+    corners, the height change at their 3 × 3 nodes (tiles × 9), their LoD, what each version's
+    ground evidence says of them (:class:`queries.tile_change.Sides`), and whether their
+    category differs (the tiles a change starts from)."""
 
     xg: NDArray[np.int64]
     yg: NDArray[np.int64]
     dz: NDArray[np.float64]
     lod: NDArray[np.float64]
-    layer: NDArray[np.float64]
-    over: NDArray[np.float64]
-    pulses: NDArray[np.float64]
+    sides: Sides
     differ: NDArray[np.bool_]
+
+    @property
+    def layer(self) -> NDArray[np.float64]:
+        """(2, tiles) m: the layer each version's surface lies in."""
+        return self.sides.layer
 
     @staticmethod
     def joined(parts: list[MovedTiles]) -> MovedTiles:
         """The tiles of ``parts`` as one record (none where no part holds any)."""
         if not parts:
             none = np.zeros(0, np.int64)
-            return MovedTiles(
-                none,
-                none,
-                np.zeros((0, 9)),
-                np.zeros(0),
-                np.zeros((2, 0)),
-                np.zeros((2, 2, 0)),
-                np.zeros((2, 2, 0)),
-                np.zeros(0, bool),
-            )
+            return MovedTiles(none, none, np.zeros((0, 9)), np.zeros(0), Sides.empty(), np.zeros(0, bool))
         cat = np.concatenate
         return MovedTiles(
             cat([p.xg for p in parts]),
             cat([p.yg for p in parts]),
             cat([p.dz for p in parts]),
             cat([p.lod for p in parts]),
-            cat([p.layer for p in parts], axis=1),
-            cat([p.over for p in parts], axis=2),
-            cat([p.pulses for p in parts], axis=2),
+            Sides.joined([p.sides for p in parts]),
             cat([p.differ for p in parts]),
         )
 
@@ -128,16 +119,7 @@ def _moved_in(db: Database, job: _Part) -> MovedTiles | None:
     judged = tile_lod(db, before, after, xg, yg, level=level, lod=job.lod)
     tested, dz, moved = MovingTiles(xg, yg, lattices[0], lattices[1], judged).moved(np.arange(len(xg)))
     t = tested[moved]
-    return MovedTiles(
-        xg[t],
-        yg[t],
-        dz[moved],
-        judged.lod[t],
-        judged.layer[:, t],
-        judged.over[..., t],
-        judged.pulses[..., t],
-        differ[t],
-    )
+    return MovedTiles(xg[t], yg[t], dz[moved], judged.lod[t], judged.sides.take(t), differ[t])
 
 
 def reached(xg: NDArray[np.int64], yg: NDArray[np.int64], seeds: NDArray[np.intp], level: int) -> NDArray[np.intp]:

@@ -33,11 +33,11 @@ from queries.filters import builtin_filters
 from queries.grids import shared_tiles
 from queries.match import REACH_TILES, match_tiles
 from queries.parts import part_side, parts_for
-from queries.tile_change import MovingTiles, level_of_detection, split_keys, tile_lattice, tile_lod
+from queries.tile_change import MovingTiles, Sides, level_of_detection, split_keys, tile_lattice, tile_lod
 from tdb.categories import NO_DATA
 from tdb.crs import check_same_horizontal
 from tdb.database import Database
-from tdb.evidence import COVERED, GROUNDED
+from tdb.evidence import under_cover
 from tdb.geojson import feature
 from tdb.outlines import outlines
 from tdb.progress import Progress
@@ -239,28 +239,24 @@ def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
 
 @dataclass(frozen=True)
 class _Grown:
-    """Moved tiles (the seeds, or the grown regions): corners, node height changes, LoD and layers."""
+    """Moved tiles (the seeds, or the grown regions): corners, node height changes, LoD and what
+    each version's ground evidence says of them."""
 
     xg: NDArray[np.int64]
     yg: NDArray[np.int64]
     dz: NDArray[np.float64]
     lod: NDArray[np.float64]
-    layer: NDArray[np.float64]
-    over: NDArray[np.float64]  # (2, 2, tiles): each version's lowest and highest return not taken for ground
-    pulses: NDArray[np.float64]  # (2, 2, tiles): the share of each version's pulses taken for ground, and per m²
+    sides: Sides
 
     @classmethod
     def of(cls, moved: MovedTiles, at: NDArray[np.intp]) -> _Grown:
         """The moved tiles ``at``."""
-        fields = (moved.lod[at], moved.layer[:, at], moved.over[..., at], moved.pulses[..., at])
-        return cls(moved.xg[at], moved.yg[at], moved.dz[at], *fields)
+        return cls(moved.xg[at], moved.yg[at], moved.dz[at], moved.lod[at], moved.sides.take(at))
 
     @classmethod
     def judged(cls, tiles: MovingTiles, at: NDArray[np.intp], dz: NDArray[np.float64]) -> _Grown:
         """The tiles ``at`` of ``tiles``, their node height changes ``dz``."""
-        judged = tiles.judged
-        fields = (judged.lod[at], judged.layer[:, at], judged.over[..., at], judged.pulses[..., at])
-        return cls(tiles.xg[at], tiles.yg[at], dz, *fields)
+        return cls(tiles.xg[at], tiles.yg[at], dz, tiles.judged.lod[at], tiles.judged.sides.take(at))
 
 
 Region = tuple[NDArray[np.intp], float, bool, float]  # members, mean dz, sure, LoD
@@ -402,11 +398,11 @@ class Unclaimed:
 
 def _doubt(t: _Grown, members: NDArray[np.intp], mean_dz: float, lod: float) -> Doubt | None:
     """Why the ground evidence does not support the change of a region (None where it does)."""
-    if _under_a_layer(t.layer, members, mean_dz, lod):
+    if _under_a_layer(t.sides.layer, members, mean_dz, lod):
         return Doubt.LAYER
     if _seen_there(t, members, mean_dz, lod):
         return Doubt.SEEN
-    if _under_cover(t.pulses, members, mean_dz):
+    if _under_cover(t.sides.pulses, members, mean_dz):
         return Doubt.COVER
     return None
 
@@ -435,7 +431,7 @@ def _seen_there(t: _Grown, members: NDArray[np.intp], mean_dz: float, lod: float
     for ground. Earth placed or dug leaves no such returns at the new level in the other survey."""
     side = 0 if mean_dz > 0 else 1
     rise = np.nanmax(np.sign(mean_dz) * t.dz[members], axis=1)  # the tile's top: a wall is narrower than it
-    low, high = t.over[side, 0, members], t.over[side, 1, members]
+    low, high = t.sides.over[side, 0, members], t.sides.over[side, 1, members]
     with np.errstate(invalid="ignore"):  # NaN where the survey holds no such return: not seen
         seen = (rise >= low - lod) & (rise <= high + lod)
     return bool(seen.mean() >= SEEN_SHARE)
@@ -457,7 +453,7 @@ def _under_cover(pulses: NDArray[np.float64], members: NDArray[np.intp], mean_dz
     held = np.isfinite(share) & np.isfinite(density)
     if not held.any():
         return False
-    return bool(np.median(share[held]) < COVERED and np.median(density[held]) < GROUNDED)
+    return bool(under_cover(np.median(share[held]), np.median(density[held])))
 
 
 def outline(

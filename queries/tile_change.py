@@ -44,12 +44,10 @@ def _noise_lod(db: Database, a: str, b: str) -> float:
 
 
 @dataclass(frozen=True)
-class TileJudgement:
-    """Per tile of a level, what both versions' ground evidence lets a change claim."""
+class Sides:
+    """What each version's ground evidence says of tiles that a region's gates read
+    (:mod:`queries.changes`): the versions on the first axis, the tiles on the last."""
 
-    lod: NDArray[np.float64]  # m: the level of detection
-    seen: NDArray[np.bool_]  # both versions saw the tile's ground well enough
-    depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface may stand above its ground
     layer: NDArray[np.float64]  # (2, tiles) m: the layer each version's surface lies in (tdb.evidence)
     # (2, 2, tiles) m: per version, the lowest and highest of its returns not taken for ground over
     # its surface (tdb.evidence; NaN where none, or where the version holds no such evidence)
@@ -57,6 +55,32 @@ class TileJudgement:
     # (2, 2, tiles): per version, the share of its pulses taken for ground and those pulses per m²
     # (tdb.evidence; NaN where it holds none, or no such evidence)
     pulses: NDArray[np.float64]
+
+    @classmethod
+    def empty(cls, tiles: int = 0) -> Sides:
+        """What no evidence says of ``tiles`` tiles: no layer, and NaN."""
+        return cls(np.zeros((2, tiles)), np.full((2, 2, tiles), np.nan), np.full((2, 2, tiles), np.nan))
+
+    def take(self, at: NDArray[np.intp]) -> Sides:
+        """The tiles ``at``."""
+        return Sides(self.layer[..., at], self.over[..., at], self.pulses[..., at])
+
+    @staticmethod
+    def joined(parts: list[Sides]) -> Sides:
+        """The tiles of ``parts``, one after the other."""
+        return Sides(
+            *(np.concatenate([getattr(p, f) for p in parts], axis=-1) for f in ("layer", "over", "pulses"))
+        )
+
+
+@dataclass(frozen=True)
+class TileJudgement:
+    """Per tile of a level, what both versions' ground evidence lets a change claim."""
+
+    lod: NDArray[np.float64]  # m: the level of detection
+    seen: NDArray[np.bool_]  # both versions saw the tile's ground well enough
+    depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface may stand above its ground
+    sides: Sides
 
 
 def tile_lod(
@@ -71,21 +95,19 @@ def tile_lod(
     variance = np.zeros(len(xg))
     seen = np.ones(len(xg), bool)
     depth = np.zeros((2, len(xg)))
-    layer = np.zeros((2, len(xg)))
-    over = np.full((2, 2, len(xg)), np.nan)
-    pulses = np.full((2, 2, len(xg)), np.nan)
+    sides = Sides.empty(len(xg))
     for side, name in enumerate((a, b)):
         evidence = db.evidence(name, bbox=bbox)
         if len(evidence) == 0:
             continue
         rmse = db.version(name).stats.reduction.rmse_m or 0.0
         fine = _at_level(evidence, xg, yg, level)
-        sigma2, support, depth[side], layer[side] = _per_tile(fine, len(xg), level)
-        over[side] = _over(fine, len(xg), level)
-        pulses[side] = _grounded(fine, len(xg), level)
+        sigma2, support, depth[side], sides.layer[side] = _per_tile(fine, len(xg), level)
+        sides.over[side] = _over(fine, len(xg), level)
+        sides.pulses[side] = _grounded(fine, len(xg), level)
         variance += np.nan_to_num(sigma2, nan=0.0) + rmse**2
         seen &= support >= MIN_SUPPORT
-    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth, layer, over, pulses)
+    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth, sides)
 
 
 def _at_level(evidence: TileEvidence, xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> TileEvidence:

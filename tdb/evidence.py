@@ -48,6 +48,7 @@ versions' gaps may hide (:mod:`queries.changes`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -134,20 +135,18 @@ class TileEvidence:
         """Whether each tile is under cover (:data:`COVERED`, :data:`GROUNDED`; False where its
         pulses are not held)."""
         share = self.ground_share.astype(float)
-        with np.errstate(invalid="ignore"):
-            return (share < COVERED) & (self.pulses.astype(float) * share < GROUNDED)
-
-    def covered_share(self) -> float:
-        """Share of the tiles under cover (:attr:`covered`)."""
-        return float(self.covered.mean()) if len(self) else 0.0
-
-    def deep_share(self) -> float:
-        """Share of the tiles whose surface stands at least :data:`DEEP` over their ground returns."""
-        return float(self.deep.mean()) if len(self) else 0.0
+        return under_cover(share, self.pulses.astype(float) * share)
 
     def supported_share(self) -> float:
         """Share of the tiles whose surface is seen well enough for a change to be claimed."""
         return float((self.support >= MIN_SUPPORT).mean()) if len(self) else 0.0
+
+
+def under_cover(share: Any, grounded: Any) -> Any:
+    """Whether what took ``share`` of its pulses for ground, ``grounded`` of them per m², is under
+    cover (:data:`COVERED`, :data:`GROUNDED`): tiles or regions, arrays or numbers; NaN is not."""
+    with np.errstate(invalid="ignore"):
+        return np.logical_and(np.less(share, COVERED), np.less(grounded, GROUNDED))
 
 
 def supported_change(dz: NDArray[np.float64], depth: NDArray[np.float64]) -> NDArray[np.float64]:
