@@ -92,11 +92,12 @@ def tile_evidence(
     depth = tile_depth(g, surface, xg, yg)
     layer = tile_layer(lift, xg, yg, floor=noise_lift(spacing, noise), window=layer_window(spacing))
     radius = SUPPORT_SPACINGS * spacing
-    beyond = _node_gaps(g, xg, yg, radius, tree=tree)
+    reach = _node_reach(g, xg, yg, radius, tree=tree)
+    beyond = np.maximum(reach - radius, 0.0)
     support = (beyond == 0).mean(axis=1)
     gap = beyond.mean(axis=1)
     none = np.full(len(xg), np.nan)
-    fields = (lift, gap, depth, layer, none, none, none, none, support)
+    fields = (lift, gap, depth, layer, none, none, none, none, np.sqrt(np.mean(reach**2, axis=1)), support)
     return TileEvidence(xg, yg, *(a.astype(np.float32) for a in fields))
 
 
@@ -293,7 +294,7 @@ def _tile_lift(
         return np.where(own > 0, total[at] / own, np.where(near_count > 0, near_total / near_count, 0.0))
 
 
-def _node_gaps(
+def _node_reach(
     g: NDArray[np.float64],
     xg: NDArray[np.int64],
     yg: NDArray[np.int64],
@@ -301,52 +302,74 @@ def _node_gaps(
     *,
     tree: cKDTree | None,
 ) -> NDArray[np.float64]:
-    """(tiles, 9): how far (m) each tile's 3 × 3 nodes lie beyond ``radius`` from the nearest
-    ground return (0 within it). Beyond a few hundred metres it is capped: the gap term is then
-    large enough to claim nothing.
+    """(tiles, 9): how far (m) each tile's 3 × 3 nodes lie from the nearest ground return.
+    Beyond a few hundred metres it is capped: the gap term is then large enough to claim nothing.
 
     Neighbouring tiles share nodes: each node is found once, on a raster of the node lattice over
     the tiles' extent (smaller than the dense model's), and read back by its place. Each return
-    first marks the nodes within ``radius`` of it, a few passes over the returns; only the nodes
-    left unmarked, the gaps, need their nearest return searched for. ``tree``:
+    first measures the nodes within ``radius`` of it, a few passes over the returns; only the nodes
+    left unmeasured, the gaps, need their nearest return searched for. ``tree``:
     :func:`tdb.kdtree.plan_tree` of ``g`` (None where ``g`` is empty)."""
     step = LEVEL // 2
     du, dv = (a.ravel() for a in np.meshgrid([0, 1, 2], [0, 1, 2]))  # in node steps
     cap = max(100.0 * radius, 50.0)
     if len(g) == 0:
-        return np.full((len(xg), 9), max(cap - radius, 0.0))
+        return np.full((len(xg), 9), cap)
     x0, y0 = int(xg.min()), int(yg.min())
     ci, cj = (xg - x0) // step, (yg - y0) // step
     touched = np.zeros((int(cj.max()) + 3, int(ci.max()) + 3), bool)
     rows, cols = cj[:, None] + dv, ci[:, None] + du
     touched[rows, cols] = True
-    near = _near_nodes(g, touched.shape, (x0, y0), step, radius)
-    nj, ni = np.nonzero(touched & ~near)
-    beyond = np.zeros(touched.shape)
+    reach = np.sqrt(_near_nodes(g, touched.shape, (x0, y0), step, radius))
+    nj, ni = np.nonzero(touched & ~np.isfinite(reach))
     if len(nj):
         nodes = np.column_stack([x0 + ni * float(step), y0 + nj * float(step)])
         assert tree is not None  # g holds returns here
         d, _ = tree.query(nodes, k=1, distance_upper_bound=cap)
-        beyond[nj, ni] = np.maximum(np.minimum(d, cap) - radius, 0.0)
-    return beyond[rows, cols]
+        reach[nj, ni] = np.minimum(d, cap)
+    return reach[rows, cols]
 
 
 def _near_nodes(
     g: NDArray[np.float64], shape: tuple[int, int], origin: tuple[int, int], step: int, radius: float
-) -> NDArray[np.bool_]:
-    """The nodes of a lattice (``shape``, its first node at ``origin``, ``step`` m apart) that lie
-    within ``radius`` of a return of ``g``: every node near enough to each return, one offset at a
-    time."""
-    near = np.zeros(shape, bool)
+) -> NDArray[np.float64]:
+    """The squared distance (m²) to the nearest return of ``g`` of each node of a lattice
+    (``shape``, its first node at ``origin``, ``step`` m apart) that lies within ``radius`` of one
+    (inf elsewhere): the nodes near enough to each return, one offset at a time.
+
+    The nearest offsets come first, so that the farther ones lower few nodes and write only
+    where they do."""
+    near = np.full(shape, np.inf)
     u, v = (g[:, 0] - origin[0]) / step, (g[:, 1] - origin[1]) / step
     i0, j0 = np.floor(u).astype(np.int64), np.floor(v).astype(np.int64)
     reach = int(np.ceil(radius / step))
     r2 = (radius / step) ** 2
+    # from the square's own corners outwards (a return lies in the square [i0, i0 + 1) × [j0, j0 + 1)),
+    # leaving out the nodes too far from every point of it
+    span = range(-reach, reach + 1)
+    offsets = sorted(
+        ((di, dj) for di in span for dj in span if max(0, -di, di - 1) ** 2 + max(0, -dj, dj - 1) ** 2 <= r2),
+        key=lambda o: (o[0] - 0.5) ** 2 + (o[1] - 0.5) ** 2,
+    )
+    for di, dj in offsets:
+        i, j = i0 + di, j0 + dj
+        d2 = (i - u) ** 2 + (j - v) ** 2
+        hit = np.flatnonzero((d2 <= r2) & (i >= 0) & (j >= 0) & (i < shape[1]) & (j < shape[0]))
+        i, j, d2 = i[hit], j[hit], d2[hit] * step**2
+        lower = d2 < near[j, i]
+        np.minimum.at(near, (j[lower], i[lower]), d2[lower])
+    return near
+    order = np.argsort((j0 - j0.min()) * (int(i0.max() - i0.min()) + 1) + (i0 - i0.min()), kind="stable")
+    u, v, i0, j0 = u[order], v[order], i0[order], j0[order]
+    first = np.flatnonzero(np.r_[True, (i0[1:] != i0[:-1]) | (j0[1:] != j0[:-1])])
+    si, sj = i0[first], j0[first]
+    reach = int(np.ceil(radius / step))
+    r2 = (radius / step) ** 2
     for di in range(-reach, reach + 1):
-        i = i0 + di
-        dx2 = (i - u) ** 2
+        dx2 = (i0 + di - u) ** 2
         for dj in range(-reach, reach + 1):
-            j = j0 + dj
-            hit = (dx2 + (j - v) ** 2 <= r2) & (i >= 0) & (j >= 0) & (i < shape[1]) & (j < shape[0])
-            near[j[hit], i[hit]] = True
+            d2 = np.minimum.reduceat(dx2 + (j0 + dj - v) ** 2, first)
+            i, j = si + di, sj + dj
+            hit = (d2 <= r2) & (i >= 0) & (j >= 0) & (i < shape[1]) & (j < shape[0])
+            near[j[hit], i[hit]] = np.minimum(near[j[hit], i[hit]], d2[hit] * step**2)
     return near

@@ -117,9 +117,9 @@ def _moved_in(db: Database, job: _Part) -> MovedTiles | None:
     if job.shift is not None and job.shift.applied:
         lattices[1] = shifted_lattice(lattices[1], job.shift)
     judged = tile_lod(db, before, after, xg, yg, level=level, lod=job.lod)
-    tested, dz, moved = MovingTiles(xg, yg, lattices[0], lattices[1], judged).moved(np.arange(len(xg)))
+    tested, dz, lod, moved = MovingTiles(xg, yg, lattices[0], lattices[1], judged).moved(np.arange(len(xg)))
     t = tested[moved]
-    return MovedTiles(xg[t], yg[t], dz[moved], judged.lod[t], judged.sides.take(t), differ[t])
+    return MovedTiles(xg[t], yg[t], dz[moved], lod[moved], judged.sides.take(t), differ[t])
 
 
 def reached(xg: NDArray[np.int64], yg: NDArray[np.int64], seeds: NDArray[np.intp], level: int) -> NDArray[np.intp]:

@@ -115,23 +115,22 @@ def _label_by_sign(
     return tile_label, n
 
 
+Compared = tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]
+
+
 def _grow(
-    tiles: MovingTiles,
-    valid: NDArray[np.bool_],
-    tested: NDArray[np.intp],
-    dz: NDArray[np.float64],
-    moved: NDArray[np.bool_],
-    seeds: NDArray[np.intp],
-    level: int,
-) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+    tiles: MovingTiles, valid: NDArray[np.bool_], compared: Compared, seeds: NDArray[np.intp], level: int
+) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
     """Grow the changed tiles ``seeds`` over neighbours whose surface moved as well, ring by
-    ring until none is added: the tiles (indices into ``tiles.xg``) and their node height changes.
+    ring until none is added: the tiles (indices into ``tiles.xg``), their node height changes
+    and their LoD.
 
     A wall built across a slope can leave a tile's template unchanged, and a raised
     platform keeps its flat tiles flat: the category change starts a region, and the
-    height change decides how far it reaches. ``tested``, ``dz`` and ``moved`` are the
-    tiles already compared (those whose category differs).
+    height change decides how far it reaches. ``compared``: the tiles already compared (those
+    whose category differs), as :meth:`MovingTiles.moved` gives them.
     """
+    tested, dz, lod, moved = compared
     xg, yg = tiles.xg, tiles.yg
     i = ((xg - xg.min()) // level).astype(np.intp)
     j = ((yg - yg.min()) // level).astype(np.intp)
@@ -140,7 +139,7 @@ def _grow(
     row = np.full(len(xg), -1, np.intp)  # each compared tile's row in the parts below; −2: did not move
     row[tested] = np.where(moved, np.arange(len(tested)), -2)
     row[~valid] = -2
-    parts = [dz]
+    parts, lods = [dz], [lod]
     taken = np.zeros(len(xg), bool)
     taken[seeds] = True
     new, count = seeds, len(tested)
@@ -151,15 +150,16 @@ def _grow(
         near = near[~taken[near] & (row[near] != -2)]
         unknown = near[row[near] == -1]
         if len(unknown):
-            t, d, m = tiles.moved(unknown)
+            t, d, lod_t, m = tiles.moved(unknown)
             row[unknown] = -2
             row[t[m]] = count + np.arange(int(m.sum()))
             parts.append(d[m])
+            lods.append(lod_t[m])
             count += int(m.sum())
         new = near[row[near] >= 0]
         taken[new] = True
     out = np.flatnonzero(taken)
-    return out, np.concatenate(parts)[row[out]]
+    return out, np.concatenate(parts)[row[out]], np.concatenate(lods)[row[out]]
 
 
 def detect(  # noqa: PLR0913 (the two versions, where, how, and the progress)
@@ -254,9 +254,11 @@ class _Grown:
         return cls(moved.xg[at], moved.yg[at], moved.dz[at], moved.lod[at], moved.sides.take(at))
 
     @classmethod
-    def judged(cls, tiles: MovingTiles, at: NDArray[np.intp], dz: NDArray[np.float64]) -> _Grown:
-        """The tiles ``at`` of ``tiles``, their node height changes ``dz``."""
-        return cls(tiles.xg[at], tiles.yg[at], dz, tiles.judged.lod[at], tiles.judged.sides.take(at))
+    def judged(
+        cls, tiles: MovingTiles, at: NDArray[np.intp], dz: NDArray[np.float64], lod: NDArray[np.float64]
+    ) -> _Grown:
+        """The tiles ``at`` of ``tiles``, their node height changes ``dz`` and LoD ``lod``."""
+        return cls(tiles.xg[at], tiles.yg[at], dz, lod, tiles.judged.sides.take(at))
 
 
 Region = tuple[NDArray[np.intp], float, bool, float]  # members, mean dz, sure, LoD
@@ -288,18 +290,19 @@ def _detect_at_once(  # noqa: PLR0913 (the two versions, where, and how)
     tiles = MovingTiles(
         xg, yg, lattices[before], lattices[after], tile_lod(db, before, after, xg, yg, level=level, lod=lod)
     )
-    tested, dz, moved = tiles.moved(differ)
+    compared = tiles.moved(differ)
+    tested, dz, lod_t, moved = compared
     if not moved.any():
         return []
     first = tested[moved]
-    seed_tiles = _Grown.judged(tiles, first, dz[moved])
+    seed_tiles = _Grown.judged(tiles, first, dz[moved], lod_t[moved])
     strong, weak = _seeds(seed_tiles, level, min_tiles)
     if not strong and not weak:
         return []
     seeds = first[np.concatenate(strong + weak)]
-    grown, dz = _grow(tiles, valid, tested, dz, moved, seeds, level)
+    grown, dz, lod_t = _grow(tiles, valid, compared, seeds, level)
     from_strong = np.isin(grown, first[np.concatenate(strong)]) if strong else np.zeros(len(grown), bool)
-    t = _Grown.judged(tiles, grown, dz)
+    t = _Grown.judged(tiles, grown, dz, lod_t)
     regions = _sure_regions(t, from_strong, level, min_tiles)
     return _features(db, (before, after), regions, t, lattices, level=level, unclaimed=unclaimed)
 

@@ -18,7 +18,7 @@ from queries.coregister import Shift
 from queries.match import REACH_TILES
 from queries.relief import nan_extreme
 from tdb.database import Database
-from tdb.evidence import GAP_SLOPE, MIN_SUPPORT, TileEvidence, supported_change
+from tdb.evidence import GAP_SLOPE, MIN_SUPPORT, TileEvidence, missed_relief, supported_change
 from tdb.evidence import LEVEL as EVIDENCE_LEVEL
 from tdb.surface import line_rebuild_at
 from tdb.tiles import SUBGRID, NodeLattice, node_lattice
@@ -80,6 +80,7 @@ class TileJudgement:
     lod: NDArray[np.float64]  # m: the level of detection
     seen: NDArray[np.bool_]  # both versions saw the tile's ground well enough
     depth: NDArray[np.float64]  # (2, tiles) m: how far each version's surface may stand above its ground
+    reach: NDArray[np.float64]  # (2, tiles) m: how far each version's nodes lie from its ground returns (RMS)
     sides: Sides
 
 
@@ -95,6 +96,7 @@ def tile_lod(
     variance = np.zeros(len(xg))
     seen = np.ones(len(xg), bool)
     depth = np.zeros((2, len(xg)))
+    reach = np.zeros((2, len(xg)))
     sides = Sides.empty(len(xg))
     for side, name in enumerate((a, b)):
         evidence = db.evidence(name, bbox=bbox)
@@ -105,9 +107,17 @@ def tile_lod(
         sigma2, support, depth[side], sides.layer[side] = _per_tile(fine, len(xg), level)
         sides.over[side] = _over(fine, len(xg), level)
         sides.pulses[side] = _grounded(fine, len(xg), level)
+        reach[side] = _rms(fine.reach, len(xg), level)
         variance += np.nan_to_num(sigma2, nan=0.0) + rmse**2
         seen &= support >= MIN_SUPPORT
-    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth, sides)
+    return TileJudgement(np.maximum(lod, 1.96 * np.sqrt(variance)), seen, depth, reach, sides)
+
+
+def _rms(values: NDArray[np.float32], tiles: int, level: int) -> NDArray[np.float64]:
+    """The RMS of ``values`` over the 2 m tiles making up each tile of ``level`` (0 where none is held)."""
+    per = (tiles, (level // EVIDENCE_LEVEL) ** 2)
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(np.nan_to_num(np.nanmean(np.square(values.astype(float)).reshape(per), axis=1)))
 
 
 def _at_level(evidence: TileEvidence, xg: NDArray[np.int64], yg: NDArray[np.int64], level: int) -> TileEvidence:
@@ -208,6 +218,27 @@ def may_move(na: NDArray[np.float64], nb: NDArray[np.float64], lod: NDArray[np.f
     return np.asarray(count, np.intp)
 
 
+def curved_lod(
+    lod: NDArray[np.float64], surfaces: NDArray[np.float64], reach: NDArray[np.float64], *, spacing: float
+) -> NDArray[np.float64]:
+    """Each tile's ``lod`` grown by the relief that each version's surface may miss between its
+    ground returns (:func:`tdb.evidence.missed_relief`), added in quadrature.
+
+    The ground's curvature in a tile is the largest second difference of its 3 × 3 nodes
+    (``spacing`` m apart), along rows or columns, in either version's rebuilt ``surfaces``
+    (2, tiles, 9): a survey whose returns missed a ditch's bottom bridges it, so the
+    curvature the other survey shows counts for both. ``reach`` (2, tiles): how far each
+    version's nodes lie from its ground returns (RMS, m)."""
+    z = surfaces.reshape(*surfaces.shape[:2], 3, 3)
+    with np.errstate(invalid="ignore"):
+        across = np.abs(z[..., 0, :] - 2 * z[..., 1, :] + z[..., 2, :])
+        along = np.abs(z[..., :, 0] - 2 * z[..., :, 1] + z[..., :, 2])
+        bends = np.concatenate([across, along], axis=-1)
+        curvature = np.nan_to_num(nan_extreme(bends, 1.0, axis=(0, 2))) / spacing**2
+    missed = missed_relief(curvature[None, :], reach)
+    return np.sqrt(lod**2 + np.square(missed).sum(axis=0))
+
+
 def rebuilt_surface(nodes: NDArray[np.float64]) -> NDArray[np.float64]:
     """Heights of the line rebuild (:mod:`tdb.surface`) at the 3 × 3 nodes of each tile (NaN: no data)."""
     mid = (SUBGRID - 1) // 2
@@ -227,9 +258,12 @@ class MovingTiles:
     after: NodeLattice
     judged: TileJudgement
 
-    def moved(self, which: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.bool_]]:
+    def moved(
+        self, which: NDArray[np.intp]
+    ) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
         """The tiles ``which`` that can move (indices), the height change at their 3 × 3 nodes,
-        and whether each moved: at least three of its nine nodes beyond the LoD, since one node
+        their LoD grown by the relief the surfaces may miss between returns (:func:`curved_lod`),
+        and whether each moved: at least three of its nine nodes beyond it, since one node
         alone is often an interpolation difference between the two sets of kept points."""
         which = which[self.judged.seen[which]]
         xg, yg = self.xg[which], self.yg[which]
@@ -237,9 +271,15 @@ class MovingTiles:
         keep = np.flatnonzero(may_move(na, nb, self.lod[which]) >= 3)
         surfaces = rebuilt_surface(np.concatenate([na[keep], nb[keep]]))
         dz = supported_change(surfaces[len(keep) :] - surfaces[: len(keep)], self.judged.depth[:, which[keep]])
+        lod = curved_lod(
+            self.lod[which[keep]],
+            surfaces.reshape(2, len(keep), 9),
+            self.judged.reach[:, which[keep]],
+            spacing=self.before.spacing * (SUBGRID - 1) / 2,
+        )
         with np.errstate(invalid="ignore"):
-            moved = (np.abs(dz) > self.lod[which[keep], None]).sum(axis=1) >= 3
-        return which[keep], dz, moved
+            moved = (np.abs(dz) > lod[:, None]).sum(axis=1) >= 3
+        return which[keep], dz, lod, moved
 
     @property
     def lod(self) -> NDArray[np.float64]:
