@@ -12,6 +12,7 @@ from typing import Any
 from benchmarks.common import RESULTS, ROOT
 from benchmarks.common import machine_line as _machine
 from benchmarks.report_feature_peers import feature_peers_section, notch_cv_section, spread_cv_section
+from benchmarks.report_lod import lod_cv_section
 from benchmarks.report_objects import crown_section, objects_section
 from benchmarks.report_roofs import ground_roofs_section
 
@@ -972,7 +973,7 @@ def changes_section(out: list[str]) -> None:
 
     out += [
         "",
-        f"Mean recall {m['recall']:.2f}, precision {m['precision']:.2f}{strict(m)}; typed right "
+        f"Mean recall {m['recall']:.3f}, precision {m['precision']:.3f}{strict(m)}; typed right "
         f"{m['typed_right']} of {m['changes']}. Target ≥ 0.9 each, every change typed right. Recall counts "
         "a true change's whole footprint, the feet of its flanks too, where the ground moved less than the "
         "level of detection; regions are outlined by the LoD contour of the change, linear between nodes. "
@@ -984,8 +985,8 @@ def changes_section(out: list[str]) -> None:
     h = doc.get("holdout", {}).get("mean")
     if h:
         out += [
-            f"On the {_holdout_label(doc).removeprefix('mean, ')}: recall {h['recall']:.2f}, precision "
-            f"{h['precision']:.2f}{strict(h)}; typed right {h['typed_right']} of {h['changes']}.",
+            f"On the {_holdout_label(doc).removeprefix('mean, ')}: recall {h['recall']:.3f}, precision "
+            f"{h['precision']:.3f}{strict(h)}; typed right {h['typed_right']} of {h['changes']}.",
             "",
         ]
     out += _other_densities(strict)
@@ -1030,11 +1031,16 @@ def _other_densities(strict: Callable[[dict[str, Any]], str]) -> list[str]:
         dm = d["mean"]
         out += [
             f"At {d['density']:g} points/m² (seeds {', '.join(d['runs'])}; {_machine(d)}): recall "
-            f"{dm['recall']:.2f}, precision {dm['precision']:.2f} (per seed {per_seed}){strict(dm)}; typed "
+            f"{dm['recall']:.3f}, precision {dm['precision']:.3f} (per seed {per_seed}){strict(dm)}; typed "
             f"right {dm['typed_right']} of {dm['changes']}.",
             "",
         ]
     return out
+
+
+def _lod_cv_section(out: list[str]) -> None:
+    doc = _load("lod_cv")
+    lod_cv_section(out, doc, _machine(doc) if doc else "")
 
 
 def _roofs_section(out: list[str]) -> None:
@@ -1065,6 +1071,7 @@ def main() -> None:
         features_section,
         epochs_section,
         changes_section,
+        _lod_cv_section,
         coregister_section,
         peers_section,
         ingest_sites_section,
