@@ -359,17 +359,3 @@ def _near_nodes(
         lower = d2 < near[j, i]
         np.minimum.at(near, (j[lower], i[lower]), d2[lower])
     return near
-    order = np.argsort((j0 - j0.min()) * (int(i0.max() - i0.min()) + 1) + (i0 - i0.min()), kind="stable")
-    u, v, i0, j0 = u[order], v[order], i0[order], j0[order]
-    first = np.flatnonzero(np.r_[True, (i0[1:] != i0[:-1]) | (j0[1:] != j0[:-1])])
-    si, sj = i0[first], j0[first]
-    reach = int(np.ceil(radius / step))
-    r2 = (radius / step) ** 2
-    for di in range(-reach, reach + 1):
-        dx2 = (i0 + di - u) ** 2
-        for dj in range(-reach, reach + 1):
-            d2 = np.minimum.reduceat(dx2 + (j0 + dj - v) ** 2, first)
-            i, j = si + di, sj + dj
-            hit = (d2 <= r2) & (i >= 0) & (j >= 0) & (i < shape[1]) & (j < shape[0])
-            near[j[hit], i[hit]] = np.minimum(near[j[hit], i[hit]], d2[hit] * step**2)
-    return near
