@@ -12,7 +12,7 @@ from typing import Any
 from benchmarks.common import RESULTS, ROOT
 from benchmarks.common import machine_line as _machine
 from benchmarks.report_feature_peers import feature_peers_section, notch_cv_section, spread_cv_section
-from benchmarks.report_lod import lod_cv_section
+from benchmarks.report_lod import lod_cv_section, same_ground_section
 from benchmarks.report_objects import crown_section, objects_section
 from benchmarks.report_roofs import ground_roofs_section
 
@@ -1055,6 +1055,8 @@ def _other_densities(strict: Callable[[dict[str, Any]], str]) -> list[str]:
 def _lod_cv_section(out: list[str]) -> None:
     doc = _load("lod_cv")
     lod_cv_section(out, doc, _machine(doc) if doc else "")
+    same = _load("same_ground")
+    same_ground_section(out, same, _machine(same) if same else "")
 
 
 def _roofs_section(out: list[str]) -> None:

@@ -41,3 +41,30 @@ def lod_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> 
         f"({held}): held-out mean F1 **{doc['held_out_f1']:.3f}**.",
         "",
     ]
+
+
+def same_ground_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> None:
+    if not doc:
+        return
+    out += [
+        "## False change on real surveys: two random halves of one survey",
+        "",
+        "`python -m benchmarks.same_ground`: each real file split into two random halves of its returns, "
+        "both ingested and compared (`auto` co-registration): they saw the same ground at the same time, "
+        "so every region reported is false. No setting was chosen on these. As shipped, and with the "
+        f"relief missed between returns left out of the level of detection. Machine: {machine}.",
+        "",
+        "| file | returns | a half's pulses/m² (median tile) | 2 m tiles | false regions, m² (share of the tiles) "
+        "| without the missed relief |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, r in doc["runs"].items():
+        cells = []
+        for key in ("shipped", "without_missed_relief"):
+            f = r[key]
+            share = 100 * f["area_m2"] / (4.0 * r["tiles"]) if r["tiles"] else float("nan")
+            cells.append(f"{f['regions']}, {f['area_m2']:,.0f} m² ({share:.2f} %)")
+        out.append(
+            f"| {name} | {r['points']:,} | {r['pulses_per_m2']:.2f} | {r['tiles']:,} | {cells[0]} | {cells[1]} |"
+        )
+    out.append("")
