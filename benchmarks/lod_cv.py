@@ -1,19 +1,22 @@
-"""The relief a surface misses between returns, in the level of detection: chosen by leave-one-seed-out.
+"""Two settings of the change's ground evidence, each chosen by leave-one-seed-out.
 
-A surface interpolated linearly between ground returns misses κr²/2 of the relief of ground of
-curvature κ at a node r from the nearest return (:func:`tdb.evidence.missed_relief`); each tile's
-LoD grows by it in quadrature (:func:`queries.tile_change.curved_lod`). This runs the synthetic
-change pairs of :mod:`benchmarks.changes_synth` at 0.75, 1.5 and 4 pulses/m² with that term
-times each factor of the grid (0: no term; 1: κr²/2, what ships), scores recall and precision by
-area, and chooses the factor by F1, each seed held out in turn (its three densities are one
-group, :func:`benchmarks.common.choose`). Seeds 11–14 are never chosen on: they are scored with
-the factor chosen on all.
-    python -m benchmarks.lod_cv [--workers 2]
+``--grid missed`` (saved as ``lod_cv``): a surface interpolated linearly between ground returns
+misses κr²/2 of the relief of ground of curvature κ at a node r from the nearest return
+(:func:`tdb.evidence.missed_relief`); each tile's LoD grows by it in quadrature
+(:func:`queries.tile_change.curved_lod`), here times each factor of the grid (0: no term; 1:
+κr²/2, what ships). ``--grid returns`` (saved as ``returns_cv``): the least ground returns each
+survey must hold in a region for its change to be claimed (``tdb.evidence.MIN_RETURNS``; 0: no
+bound). Both run the synthetic change pairs of :mod:`benchmarks.changes_synth` at 0.75, 1.5 and 4
+pulses/m², score recall and precision by area, and choose by F1, each seed held out in turn (its
+three densities are one group, :func:`benchmarks.common.choose`); the other setting stays as
+shipped. Seeds 11–14 are never chosen on: they are scored with the setting chosen on all.
+    python -m benchmarks.lod_cv [--grid missed|returns] [--workers 2]
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
@@ -35,11 +38,17 @@ DENSITIES = (0.75, 1.5, 4.0)
 CHOSEN_ON = range(1, 7)
 NEVER_CHOSEN_ON = range(11, 15)
 SIZE = 300.0
-SHIPPED = tdb.evidence.MISSED
+# per grid: the tdb.evidence constant it sets, its values by label, and the file it is saved as
+GRIDS = {
+    "missed": ("MISSED", {f"{f:g}": tdb.evidence.MISSED * f for f in FACTORS}, "lod_cv"),
+    "returns": ("MIN_RETURNS", {f"{k}": float(k) for k in (0, 4, 8, 16, 32)}, "returns_cv"),
+}
 
 
-def evaluate(case: tuple[int, float]) -> dict[str, dict[str, float]]:
-    """Per factor, recall / precision / F1 by area (and the moved ground's recall) of one pair."""
+def evaluate(case: tuple[int, float], *, grid: str = "missed") -> dict[str, dict[str, float]]:
+    """Per setting of ``grid``, recall / precision / F1 by area (and the moved ground's recall) of one pair."""
+    constant, values, _ = GRIDS[grid]
+    shipped = getattr(tdb.evidence, constant)
     seed, density = case
     scene = make_scene(seed=seed, size=SIZE)
     later, changes = apply_changes(scene, seed=seed)
@@ -50,13 +59,13 @@ def evaluate(case: tuple[int, float]) -> dict[str, dict[str, float]]:
         options = IngestOptions(exclude=())  # as changes_synth: the filter must find the low outliers
         ingest(sample(scene, density=density, seed=seed), db, version="before", options=options)
         ingest(sample(later, density=density, seed=seed + 1000), db, version="after", options=options)
-        for factor in FACTORS:
-            tdb.evidence.MISSED = SHIPPED * factor
+        for label, value in values.items():
+            setattr(tdb.evidence, constant, value)
             s = score(detect(db, "before", "after"), changes, moved=moved)
             r, p = s["recall"], s["precision"]
             f1 = 2 * r * p / (r + p) if r + p > 0 else 0.0
-            out[f"{factor:g}"] = {"recall": r, "precision": p, "f1": f1, "recall_moved": s.get("recall_moved")}
-    tdb.evidence.MISSED = SHIPPED
+            out[label] = {"recall": r, "precision": p, "f1": f1, "recall_moved": s.get("recall_moved")}
+    setattr(tdb.evidence, constant, shipped)
     return out
 
 
@@ -64,12 +73,11 @@ def _name(seed: int, density: float) -> str:
     return f"{seed}@{density:g}"
 
 
-def summarise(runs: dict[str, dict[str, dict[str, float]]]) -> dict[str, Any]:
-    """The factor chosen on all chosen-on seeds, each seed's held-out choice and F1, and the
-    means per density for every factor, on the chosen-on seeds and on the others."""
+def summarise(runs: dict[str, dict[str, dict[str, float]]], settings: list[str]) -> dict[str, Any]:
+    """The setting chosen on all chosen-on seeds, each seed's held-out choice and F1, and the
+    means per density for every setting, on the chosen-on seeds and on the others."""
     chosen = [_name(s, d) for s in CHOSEN_ON for d in DENSITIES]
     groups = {n: n.split("@")[0] for n in chosen}
-    settings = [f"{f:g}" for f in FACTORS]
     table = {f: {n: runs[n][f]["f1"] for n in chosen} for f in settings}
     tuned, held = choose(table, groups)
 
@@ -92,17 +100,21 @@ def summarise(runs: dict[str, dict[str, dict[str, float]]]) -> dict[str, Any]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--grid", choices=sorted(GRIDS), default="missed")
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
+    constant, values, result = GRIDS[args.grid]
     cases = [(s, d) for s in (*CHOSEN_ON, *NEVER_CHOSEN_ON) for d in DENSITIES]
     # spawned, not forked: a pool forked from a process whose libraries hold threads can hang
     with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-        runs = {_name(*c): r for c, r in zip(cases, pool.map(evaluate, cases), strict=True)}
-    summary = summarise(runs)
+        scored = pool.map(functools.partial(evaluate, grid=args.grid), cases)
+        runs = {_name(*c): r for c, r in zip(cases, scored, strict=True)}
+    summary = summarise(runs, list(values))
     print("tuned", summary["tuned"], "held out F1", round(summary["held_out_f1"], 4))
     for f, per in summary["means"].items():
         print(f, {d: {k: round(v, 3) for k, v in m.items()} for d, m in per.items()})
-    print(save("lod_cv", {"factors": FACTORS, "densities": DENSITIES, "size": SIZE, "runs": runs, **summary}))
+    doc = {"constant": constant, "settings": values, "densities": DENSITIES, "size": SIZE, "runs": runs}
+    print(save(result, {**doc, **summary}))
 
 
 if __name__ == "__main__":

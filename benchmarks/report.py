@@ -1053,8 +1053,9 @@ def _other_densities(strict: Callable[[dict[str, Any]], str]) -> list[str]:
 
 
 def _lod_cv_section(out: list[str]) -> None:
-    doc = _load("lod_cv")
-    lod_cv_section(out, doc, _machine(doc) if doc else "")
+    for name in ("lod_cv", "returns_cv"):
+        doc = _load(name)
+        lod_cv_section(out, doc, _machine(doc) if doc else "")
     same = _load("same_ground")
     same_ground_section(out, same, _machine(same) if same else "")
 

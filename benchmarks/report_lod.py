@@ -9,20 +9,36 @@ def _cell(m: dict[str, float]) -> str:
     return f"{m['recall']:.3f} / {m['precision']:.3f} / {m['f1']:.3f}"
 
 
+_TITLES = {
+    "MISSED": (
+        "The relief missed between returns, chosen by leave-one-seed-out",
+        "each tile's level of detection grown by the factor times κr²/2 (the relief a line between ground "
+        "returns misses; 0: no term, 1: what ships)",
+        "factor",
+        "`python -m benchmarks.lod_cv`",
+    ),
+    "MIN_RETURNS": (
+        "The least ground returns a change rests on, chosen by leave-one-seed-out",
+        "a region claimed only where each survey holds at least this many ground returns in it (0: no bound)",
+        "least returns",
+        "`python -m benchmarks.lod_cv --grid returns`",
+    ),
+}
+
+
 def lod_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> None:
     if not doc:
         return
+    title, what, setting, command = _TITLES[doc.get("constant", "MISSED")]
     densities = [f"{d:g}" for d in doc["densities"]]
     out += [
-        "## The relief missed between returns, chosen by leave-one-seed-out",
+        f"## {title}",
         "",
-        "`python -m benchmarks.lod_cv`: the synthetic change pairs of `changes_synth` "
-        f"({doc['size']:.0f} m scenes) at {', '.join(densities)} points/m², each tile's level of detection "
-        "grown by the factor times κr²/2 (the relief a line between ground returns misses; 0: no term, "
-        "1: what ships). Recall / precision / F1 by area, means over seeds; the factor is chosen by F1, "
-        f"each seed (its three densities) held out in turn. Machine: {machine}.",
+        f"{command}: the synthetic change pairs of `changes_synth` ({doc['size']:.0f} m scenes) at "
+        f"{', '.join(densities)} points/m², {what}. Recall / precision / F1 by area, means over seeds; the "
+        f"setting is chosen by F1, each seed (its three densities) held out in turn. Machine: {machine}.",
         "",
-        "| factor | "
+        f"| {setting} | "
         + " | ".join(f"{d} points/m², seeds chosen on" for d in densities)
         + " | "
         + " | ".join(f"{d} points/m², never chosen on" for d in densities)
@@ -37,7 +53,7 @@ def lod_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> 
     held = ", ".join(f"seed {g}: {h['setting']}" for g, h in doc["held_out"].items())
     out += [
         "",
-        f"Chosen on all seeds: factor {doc['tuned']}, mean F1 {doc['tuned_f1']:.3f}; each seed held out "
+        f"Chosen on all seeds: {doc['tuned']}, mean F1 {doc['tuned_f1']:.3f}; each seed held out "
         f"({held}): held-out mean F1 **{doc['held_out_f1']:.3f}**.",
         "",
     ]
@@ -46,25 +62,29 @@ def lod_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> 
 def same_ground_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> None:
     if not doc:
         return
+    variants = ("shipped", "without_least_returns", "without_missed_relief", "without_either")
+    variants = tuple(v for v in variants if all(v in r for r in doc["runs"].values()))
     out += [
         "## False change on real surveys: two random halves of one survey",
         "",
         "`python -m benchmarks.same_ground`: each real file split into two random halves of its returns, "
         "both ingested and compared (`auto` co-registration): they saw the same ground at the same time, "
-        "so every region reported is false. No setting was chosen on these. As shipped, and with the "
-        f"relief missed between returns left out of the level of detection. Machine: {machine}.",
+        "so every region reported is false. No setting was chosen on these. False regions, m² (share of "
+        "the 2 m tiles): as shipped, without the least ground returns a region needs, without the relief "
+        f"missed between returns in the level of detection, and without either. Machine: {machine}.",
         "",
-        "| file | returns | a half's pulses/m² (median tile) | 2 m tiles | false regions, m² (share of the tiles) "
-        "| without the missed relief |",
-        "|---|---|---|---|---|---|",
+        "| file | returns | a half's pulses/m² | 2 m tiles | "
+        + " | ".join(v.replace("_", " ") for v in variants)
+        + " |",
+        "|---|---|---|---|" + "---|" * len(variants),
     ]
     for name, r in doc["runs"].items():
         cells = []
-        for key in ("shipped", "without_missed_relief"):
+        for key in variants:
             f = r[key]
             share = 100 * f["area_m2"] / (4.0 * r["tiles"]) if r["tiles"] else float("nan")
             cells.append(f"{f['regions']}, {f['area_m2']:,.0f} m² ({share:.2f} %)")
         out.append(
-            f"| {name} | {r['points']:,} | {r['pulses_per_m2']:.2f} | {r['tiles']:,} | {cells[0]} | {cells[1]} |"
+            f"| {name} | {r['points']:,} | {r['pulses_per_m2']:.2f} | {r['tiles']:,} | " + " | ".join(cells) + " |"
         )
     out.append("")

@@ -133,9 +133,9 @@ def tile_pulses(
     xy: NDArray[np.float64], ground: NDArray[np.bool_], xg: NDArray[np.int64], yg: NDArray[np.int64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Per 2 m tile (corners ``xg``, ``yg``), the pulses ``xy`` (their last returns) per m², and
-    the share of them that ``ground`` marks as taken for ground; both NaN where the tile holds none."""
+    the share of them that ``ground`` marks as taken for ground (NaN where the tile holds none)."""
     xg, yg = np.asarray(xg, np.int64), np.asarray(yg, np.int64)
-    density, share = np.full(len(xg), np.nan), np.full(len(xg), np.nan)
+    density, share = np.zeros(len(xg)), np.full(len(xg), np.nan)
     if len(xy) == 0 or len(xg) == 0:
         return density, share
     grid = _TileGrid.of(xg, yg)
@@ -145,7 +145,7 @@ def tile_pulses(
     pulses = np.bincount(cell[on], minlength=grid.size)[at]
     grounded = np.bincount(cell[on], weights=np.asarray(ground, bool)[on], minlength=grid.size)[at]
     held = pulses > 0
-    density[held] = pulses[held] / LEVEL**2
+    density[:] = pulses / LEVEL**2
     share[held] = grounded[held] / pulses[held]
     return density, share
 

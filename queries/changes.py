@@ -37,7 +37,7 @@ from queries.tile_change import MovingTiles, Sides, level_of_detection, split_ke
 from tdb.categories import NO_DATA
 from tdb.crs import check_same_horizontal
 from tdb.database import Database
-from tdb.evidence import under_cover
+from tdb.evidence import too_few_returns, under_cover
 from tdb.geojson import feature
 from tdb.outlines import outlines
 from tdb.progress import Progress
@@ -387,6 +387,7 @@ class Doubt(StrEnum):
     LAYER = "under a layer taken for ground"
     SEEN = "seen by the other survey, not taken for ground"
     COVER = "under a cover the survey standing higher did not see through"
+    SPARSE = "resting on too few ground returns of one survey"
 
 
 @dataclass(frozen=True)
@@ -401,6 +402,8 @@ class Unclaimed:
 
 def _doubt(t: _Grown, members: NDArray[np.intp], mean_dz: float, lod: float) -> Doubt | None:
     """Why the ground evidence does not support the change of a region (None where it does)."""
+    if _resting_on_few(t.sides.returns, members):
+        return Doubt.SPARSE
     if _under_a_layer(t.sides.layer, members, mean_dz, lod):
         return Doubt.LAYER
     if _seen_there(t, members, mean_dz, lod):
@@ -408,6 +411,19 @@ def _doubt(t: _Grown, members: NDArray[np.intp], mean_dz: float, lod: float) -> 
     if _under_cover(t.sides.pulses, members, mean_dz):
         return Doubt.COVER
     return None
+
+
+def _resting_on_few(returns: NDArray[np.float64], members: NDArray[np.intp]) -> bool:
+    """Whether either version holds fewer than :data:`tdb.evidence.MIN_RETURNS` ground returns over
+    a region's tiles (``returns``: 2 × tiles; a version that holds no such evidence there, NaN in
+    every tile, is not counted: stored before it was kept).
+
+    Two surveys of under a pulse per m² hold a return in every other 2 m tile or fewer: a region
+    of a few tiles between them compares where a handful of returns fell, on each side of a bank
+    or a ditch's edge, not how the ground moved."""
+    r = returns[:, members]
+    counted = np.isfinite(r).any(axis=1)
+    return bool((counted & too_few_returns(np.nansum(r, axis=1))).any())
 
 
 def _under_a_layer(layers: NDArray[np.float64], members: NDArray[np.intp], mean_dz: float, lod: float) -> bool:

@@ -55,22 +55,26 @@ class Sides:
     # (2, 2, tiles): per version, the share of its pulses taken for ground and those pulses per m²
     # (tdb.evidence; NaN where it holds none, or no such evidence)
     pulses: NDArray[np.float64]
+    # (2, tiles): per version, how many of its ground returns (last returns taken for ground) the
+    # tile holds (NaN where the version holds no such evidence)
+    returns: NDArray[np.float64]
+
+    FIELDS = ("layer", "over", "pulses", "returns")
 
     @classmethod
     def empty(cls, tiles: int = 0) -> Sides:
         """What no evidence says of ``tiles`` tiles: no layer, and NaN."""
-        return cls(np.zeros((2, tiles)), np.full((2, 2, tiles), np.nan), np.full((2, 2, tiles), np.nan))
+        none = np.full((2, tiles), np.nan)
+        return cls(np.zeros((2, tiles)), np.full((2, 2, tiles), np.nan), np.full((2, 2, tiles), np.nan), none)
 
     def take(self, at: NDArray[np.intp]) -> Sides:
         """The tiles ``at``."""
-        return Sides(self.layer[..., at], self.over[..., at], self.pulses[..., at])
+        return Sides(*(getattr(self, f)[..., at] for f in self.FIELDS))
 
     @staticmethod
     def joined(parts: list[Sides]) -> Sides:
         """The tiles of ``parts``, one after the other."""
-        return Sides(
-            *(np.concatenate([getattr(p, f) for p in parts], axis=-1) for f in ("layer", "over", "pulses"))
-        )
+        return Sides(*(np.concatenate([getattr(p, f) for p in parts], axis=-1) for f in Sides.FIELDS))
 
 
 @dataclass(frozen=True)
@@ -107,6 +111,7 @@ def tile_lod(
         sigma2, support, depth[side], sides.layer[side] = _per_tile(fine, len(xg), level)
         sides.over[side] = _over(fine, len(xg), level)
         sides.pulses[side] = _grounded(fine, len(xg), level)
+        sides.returns[side] = _ground_returns(fine, len(xg), level)
         reach[side] = _rms(fine.reach, len(xg), level)
         variance += np.nan_to_num(sigma2, nan=0.0) + rmse**2
         seen &= support >= MIN_SUPPORT
@@ -150,6 +155,16 @@ def _grounded(e: TileEvidence, tiles: int, level: int) -> NDArray[np.float64]:
         return np.stack(
             [np.where(pulses > 0, grounded / pulses, np.nan), np.where(count > 0, grounded / count, np.nan)]
         )
+
+
+def _ground_returns(e: TileEvidence, tiles: int, level: int) -> NDArray[np.float64]:
+    """How many ground returns (last returns taken for ground) the 2 m tiles making up each tile
+    of ``level`` hold (``e``: theirs, :func:`_at_level`; NaN where none has its pulses counted)."""
+    per = (tiles, (level // EVIDENCE_LEVEL) ** 2)
+    density, share = e.pulses.astype(float).reshape(per), e.ground_share.astype(float).reshape(per)
+    counted = np.isfinite(density)
+    grounded = np.where(counted, density * np.nan_to_num(share), 0.0).sum(axis=1) * EVIDENCE_LEVEL**2
+    return np.where(counted.any(axis=1), grounded, np.nan)
 
 
 def _per_tile(

@@ -76,6 +76,9 @@ GROUNDED = 1.0  # pulses taken for ground per m²
 # nearer: a 2 m ditch 1 m deep (κ ≈ 2 /m) holds returns 1.15 m apart at 0.75 pulses/m², and its
 # bottom may lie 0.6 m from the nearest, so each survey's surface cuts it at another depth.
 MISSED = 0.5
+# A change is claimed only where each survey holds at least this many ground returns in the region:
+# a region's mean change over fewer rests on where a handful of returns happened to fall.
+MIN_RETURNS = 16
 
 
 @dataclass(frozen=True)
@@ -175,6 +178,12 @@ def missed_relief(curvature: NDArray[np.float64], reach: NDArray[np.float64]) ->
     apart the line misses κ·x·(2r − x)/2 at x, so at least κr²/2 at a node r from the nearer
     one, its whole at the midpoint (× :data:`MISSED` / ½)."""
     return MISSED * curvature * np.square(reach)
+
+
+def too_few_returns(returns: Any) -> Any:
+    """Whether ``returns`` ground returns (a number or an array) are too few for a change to rest on
+    (:data:`MIN_RETURNS`)."""
+    return np.less(returns, MIN_RETURNS)
 
 
 def supported_change(dz: NDArray[np.float64], depth: NDArray[np.float64]) -> NDArray[np.float64]:
