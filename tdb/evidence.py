@@ -94,7 +94,7 @@ class TileEvidence:
     # m: the lowest and highest of its returns not taken for ground, over its surface (NaN: none)
     over_low: NDArray[np.float32]
     over_high: NDArray[np.float32]
-    pulses: NDArray[np.float32]  # its pulses (last returns) per m² (NaN: none)
+    pulses: NDArray[np.float32]  # its pulses (last returns) per m² (0: none; NaN: not kept when stored)
     ground_share: NDArray[np.float32]  # the share of them taken for ground (NaN: none)
     reach: NDArray[np.float32]  # m: RMS distance of its nodes from the nearest ground return
     support: NDArray[np.float32]  # share of its nodes with a ground return within the radius
