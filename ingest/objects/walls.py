@@ -28,7 +28,6 @@ ANGLE_STEP = 0.5  # degrees between the directions tried
 SUB = 4  # bins of resolution / 8 in the sliding window: half a resolution across a direction
 MIN_CELLS = 4  # a footprint narrower than this many resolutions has no wall a fit could find
 FAR = 1.5  # resolutions: an intersection this far from the stretches' meeting point is a step
-REFINE = 2  # passes of the walls' pooled direction: the walls found in one frame set the next
 
 
 @dataclass(frozen=True)
@@ -74,9 +73,22 @@ def fit_walls(geometry: shapely.Geometry, *, resolution: float) -> shapely.Geome
     largest = max(polygons, key=lambda p: p.area)
     if _width(largest) < MIN_CELLS * resolution:
         return None
-    angle = main_direction(largest, resolution=resolution)
-    for _ in range(REFINE):
-        angle = _refined(np.asarray(largest.exterior.coords), angle, resolution)
+    piled = main_direction(largest, resolution=resolution)
+    pooled = _refined(np.asarray(largest.exterior.coords), piled, resolution)
+    fits = [f for f in (_fitted(polygons, a, resolution) for a in (piled, pooled)) if f is not None]
+    if not fits:
+        return None
+    # the direction whose walls keep nearer the drawn outline: the outlines' area apart
+    out = min(fits, key=lambda f: f.symmetric_difference(geometry).area)
+    # the outlines' mean distance apart, measured along the fitted walls
+    if out.symmetric_difference(geometry).area > resolution / 2 * out.length:
+        return None
+    return out
+
+
+def _fitted(polygons: list[shapely.Polygon], angle: float, resolution: float) -> shapely.Geometry | None:
+    """The ``polygons`` fitted wall by wall in the frame of ``angle`` (None where the fit is no
+    valid geometry)."""
     fitted = []
     for polygon in polygons:
         shell = _fit_ring(np.asarray(polygon.exterior.coords), angle, resolution)
@@ -88,19 +100,16 @@ def fit_walls(geometry: shapely.Geometry, *, resolution: float) -> shapely.Geome
         walled = shapely.Polygon(shell, [h for h in holes if h is not None])
         fitted.append(walled if walled.is_valid else polygon.simplify(resolution / 2))
     out = shapely.union_all(fitted)
-    if out.is_empty or not out.is_valid:
-        return None
-    # the outlines' mean distance apart, measured along the fitted walls
-    if out.symmetric_difference(geometry).area > resolution / 2 * out.length:
-        return None
-    return out
+    return None if out.is_empty or not out.is_valid else out
 
 
 def _refined(ring: NDArray[np.float64], angle: float, resolution: float) -> float:
     """``angle`` turned to the direction the ring's walls run along together: each wall's edges
     about their own centre (those square to the main direction turned a right angle), their
     pooled principal axis, each edge weighed by its length. Every edge of every wall votes, where
-    the piles of :func:`main_direction` see directions half a degree apart through a zigzag."""
+    the piles of :func:`main_direction` see directions half a degree apart through a zigzag; but
+    a poor draw's stretches can lead it astray too, so the fit keeps whichever of the two
+    directions keeps its walls nearer the outline (:func:`fit_walls`)."""
     c, s = np.cos(angle), np.sin(angle)
     uv = (ring - ring[:-1].mean(axis=0)) @ np.array([[c, -s], [s, c]])
     scatter = np.zeros((2, 2))
