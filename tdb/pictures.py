@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import os
+import textwrap
 from typing import Any
 
 import numpy as np
@@ -90,7 +91,7 @@ def category_atlas(path: str | os.PathLike[str], *, n: int = SUBGRID) -> None:
     t = templates(n)
     marks = feature_nodes(n)
     uv = subgrid_uv(n)
-    fig = _figure(18, 17)
+    fig = _figure(18, 19)
     axes = fig.subplots(10, 12)
     for ax in axes.ravel():
         ax.axis("off")
@@ -102,7 +103,8 @@ def category_atlas(path: str | os.PathLike[str], *, n: int = SUBGRID) -> None:
         )
         keep = marks[cat.code]
         ax.plot(uv[keep, 0], uv[keep, 1], "o", color="red", ms=3)
-        ax.set_title(f"{cat.code}: {cat.description}", fontsize=5.5, wrap=True)
+        # wrapped by hand: a title wider than its panel runs over its neighbours'
+        ax.set_title(textwrap.fill(f"{cat.code}: {cat.description}", 30), fontsize=5.5)
     fig.suptitle(
         "tdb: the 115 tile categories (north up, dark low to light high; red: feature nodes kept)", fontsize=13
     )
