@@ -360,14 +360,15 @@ def _features(
     for (members, mean_dz, sure, region_lod), was, now in zip(regions, found[before], found[after]):
         if not sure and not _closed_form_changed(was, now, mean_dz):
             continue
-        x, y = t.xg[members], t.yg[members]
         doubt = _doubt(t, members, mean_dz, region_lod)
-        if doubt is not None:
-            if unclaimed is not None:
-                geom = outline(x, y, t.dz[members], t.lod[members], mean_dz, level=level)
-                unclaimed.append(Unclaimed(geom, round(mean_dz, 3), doubt))
+        if doubt is not None and unclaimed is None:
             continue
+        x, y = t.xg[members], t.yg[members]
         geom = outline(x, y, t.dz[members], t.lod[members], mean_dz, level=level)
+        if doubt is not None:
+            assert unclaimed is not None  # the regions not claimed are outlined only where asked for
+            unclaimed.append(Unclaimed(geom, round(mean_dz, 3), doubt))
+            continue
         compact = elongation(x.astype(float), y.astype(float), level=level) < LINE_ELONGATION
         props = {
             "kind": _kind(was, now, mean_dz, compact=compact),

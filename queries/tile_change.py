@@ -110,8 +110,7 @@ def tile_lod(
         fine = _at_level(evidence, xg, yg, level)
         sigma2, support, depth[side], sides.layer[side] = _per_tile(fine, len(xg), level)
         sides.over[side] = _over(fine, len(xg), level)
-        sides.pulses[side] = _grounded(fine, len(xg), level)
-        sides.returns[side] = _ground_returns(fine, len(xg), level)
+        sides.pulses[side], sides.returns[side] = _grounded(fine, len(xg), level)
         reach[side] = _rms(fine.reach, len(xg), level)
         variance += np.nan_to_num(sigma2, nan=0.0) + rmse**2
         seen &= support >= MIN_SUPPORT
@@ -142,29 +141,23 @@ def _over(e: TileEvidence, tiles: int, level: int) -> NDArray[np.float64]:
     return np.stack([nan_extreme(low, -1.0, axis=1), nan_extreme(high, 1.0, axis=1)])
 
 
-def _grounded(e: TileEvidence, tiles: int, level: int) -> NDArray[np.float64]:
-    """(2, tiles): the share of the pulses taken for ground, and those pulses per m², over the 2 m
-    tiles making up each tile of ``level`` (``e``: theirs, :func:`_at_level`; NaN where none holds any)."""
+def _grounded(e: TileEvidence, tiles: int, level: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Over the 2 m tiles making up each tile of ``level`` (``e``: theirs, :func:`_at_level`):
+    (2, tiles) the share of the pulses taken for ground and those pulses per m² (NaN where none
+    holds any), and (tiles) how many ground returns they hold (NaN where none has its pulses
+    counted)."""
     per = (tiles, (level // EVIDENCE_LEVEL) ** 2)
     density, share = e.pulses.astype(float).reshape(per), e.ground_share.astype(float).reshape(per)
-    held = np.isfinite(density) & np.isfinite(share)
+    counted = np.isfinite(density)
+    held = counted & np.isfinite(share)  # a tile without pulses has no share
     pulses = np.where(held, density, 0.0).sum(axis=1)
     grounded = np.where(held, density * share, 0.0).sum(axis=1)
     count = held.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.stack(
+        rates = np.stack(
             [np.where(pulses > 0, grounded / pulses, np.nan), np.where(count > 0, grounded / count, np.nan)]
         )
-
-
-def _ground_returns(e: TileEvidence, tiles: int, level: int) -> NDArray[np.float64]:
-    """How many ground returns (last returns taken for ground) the 2 m tiles making up each tile
-    of ``level`` hold (``e``: theirs, :func:`_at_level`; NaN where none has its pulses counted)."""
-    per = (tiles, (level // EVIDENCE_LEVEL) ** 2)
-    density, share = e.pulses.astype(float).reshape(per), e.ground_share.astype(float).reshape(per)
-    counted = np.isfinite(density)
-    grounded = np.where(counted, density * np.nan_to_num(share), 0.0).sum(axis=1) * EVIDENCE_LEVEL**2
-    return np.where(counted.any(axis=1), grounded, np.nan)
+    return rates, np.where(counted.any(axis=1), grounded * EVIDENCE_LEVEL**2, np.nan)
 
 
 def _per_tile(

@@ -79,11 +79,9 @@ def fit_walls(geometry: shapely.Geometry, *, resolution: float) -> shapely.Geome
     if not fits:
         return None
     # the direction whose walls keep nearer the drawn outline: the outlines' area apart
-    out = min(fits, key=lambda f: f.symmetric_difference(geometry).area)
+    apart, out = min(((f.symmetric_difference(geometry).area, f) for f in fits), key=lambda pair: pair[0])
     # the outlines' mean distance apart, measured along the fitted walls
-    if out.symmetric_difference(geometry).area > resolution / 2 * out.length:
-        return None
-    return out
+    return None if apart > resolution / 2 * out.length else out
 
 
 def _fitted(polygons: list[shapely.Polygon], angle: float, resolution: float) -> shapely.Geometry | None:
