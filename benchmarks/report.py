@@ -1053,7 +1053,7 @@ def _other_densities(strict: Callable[[dict[str, Any]], str]) -> list[str]:
 
 
 def _lod_cv_section(out: list[str]) -> None:
-    for name in ("lod_cv", "returns_cv"):
+    for name in ("lod_cv", "returns_cv", "contour_cv"):
         doc = _load(name)
         lod_cv_section(out, doc, _machine(doc) if doc else "")
     same = _load("same_ground")

@@ -5,8 +5,9 @@ from __future__ import annotations
 from typing import Any
 
 
-def _cell(m: dict[str, float]) -> str:
-    return f"{m['recall']:.3f} / {m['precision']:.3f} / {m['f1']:.3f}"
+def _cell(m: dict[str, float], by: str) -> str:
+    cell = f"{m['recall']:.3f} / {m['precision']:.3f} / {m['f1']:.3f}"
+    return f"{cell} / {m['iou']:.3f}" if by == "iou" else cell
 
 
 _TITLES = {
@@ -23,20 +24,30 @@ _TITLES = {
         "least returns",
         "`python -m benchmarks.lod_cv --grid returns`",
     ),
+    "CONTOUR": (
+        "A change region's outline, chosen by leave-one-seed-out",
+        "each claimed region outlined where its change passes this multiple of its level of detection "
+        "(1: the level of detection's own contour, what ships)",
+        "contour × LoD",
+        "`python -m benchmarks.lod_cv --grid contour`",
+    ),
 }
+_MEASURES = {"f1": "Recall / precision / F1 by area", "iou": "Recall / precision / F1 / IoU by area"}
 
 
 def lod_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> None:
     if not doc:
         return
     title, what, setting, command = _TITLES[doc.get("constant", "MISSED")]
+    by = doc["by"]
     densities = [f"{d:g}" for d in doc["densities"]]
     out += [
         f"## {title}",
         "",
         f"{command}: the synthetic change pairs of `changes_synth` ({doc['size']:.0f} m scenes) at "
-        f"{', '.join(densities)} points/m², {what}. Recall / precision / F1 by area, means over seeds; the "
-        f"setting is chosen by F1, each seed (its three densities) held out in turn. Machine: {machine}.",
+        f"{', '.join(densities)} points/m², {what}. {_MEASURES[by]}, means over seeds; the setting is "
+        f"chosen by {by.upper() if by == 'f1' else 'IoU'}, each seed (its three densities) held out in turn. "
+        f"Machine: {machine}.",
         "",
         f"| {setting} | "
         + " | ".join(f"{d} points/m², seeds chosen on" for d in densities)
@@ -47,14 +58,15 @@ def lod_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> 
     ]
     for f, per in doc["means"].items():
         never = doc["never_chosen_on"][f]
-        cells = [_cell(per[d]) for d in densities] + [_cell(never[d]) for d in densities]
+        cells = [_cell(per[d], by) for d in densities] + [_cell(never[d], by) for d in densities]
         mark = " (chosen)" if f == doc["tuned"] else ""
         out.append(f"| {f}{mark} | " + " | ".join(cells) + " |")
     held = ", ".join(f"seed {g}: {h['setting']}" for g, h in doc["held_out"].items())
+    name = "F1" if by == "f1" else "IoU"
     out += [
         "",
-        f"Chosen on all seeds: {doc['tuned']}, mean F1 {doc['tuned_f1']:.3f}; each seed held out "
-        f"({held}): held-out mean F1 **{doc['held_out_f1']:.3f}**.",
+        f"Chosen on all seeds: {doc['tuned']}, mean {name} {doc['tuned_score']:.3f}; each seed held out "
+        f"({held}): held-out mean {name} **{doc['held_out_score']:.3f}**.",
         "",
     ]
 

@@ -54,6 +54,7 @@ CLOSED_DZ = 2.0  # × LoD: the least mean change of such a region
 CLOSED = ("pit", "mound")
 MAX_LOOKUP = 50_000_000  # cells of _member's grid (50 MB)
 FINE = 4  # outline cells per node spacing: a quarter of a metre on 2 m tiles
+CONTOUR = 1.0  # × LoD: the change a region's outline is drawn at
 LINE_ELONGATION = 2.0  # a region less elongated than this is compact: no line's change
 RULES = (  # (filter, sign of dz, kind when the filter matches in the later version / in the earlier one)
     ("ditch", -1, "ditch dug", "ditch filled"),
@@ -497,7 +498,7 @@ def outline(
     it, the contour lies nearer the latter, not halfway."""
     sign = np.sign(mean_dz)
     ratio = np.nan_to_num(dz * sign / lod[:, None], nan=0.0)
-    if not (ratio > 1.0).any():
+    if not (ratio > CONTOUR).any():
         return shapely.coverage_union_all(shapely.box(xg, yg, xg + level, yg + level))  # tiles never overlap
     x0, y0 = int(xg.min()), int(yg.min())
     ti, tj = (xg - x0) // level, (yg - y0) // level
@@ -505,7 +506,7 @@ def outline(
     tile = np.zeros((int(tj.max()) + 1, int(ti.max()) + 1), bool)
     tile[tj, ti] = True
     inside = tile[np.arange(fine.shape[0]) // (2 * FINE)][:, np.arange(fine.shape[1]) // (2 * FINE)]
-    moved = np.where((fine > 1.0) & inside, 0, -1)
+    moved = np.where((fine > CONTOUR) & inside, 0, -1)
     return outlines(moved, x0=float(x0), y0=float(y0), cell=level / 2 / FINE).get(0, shapely.Polygon())
 
 
