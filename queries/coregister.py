@@ -40,7 +40,7 @@ from scipy import ndimage
 
 from queries.grids import Box, surface_grids
 from tdb.bbox import box_area
-from tdb.crs import check_same_horizontal
+from tdb.crs import check_same_horizontal, height_offset
 from tdb.database import Database
 from tdb.errors import DatabaseError
 from tdb.evidence import LEVEL as EVIDENCE_LEVEL
@@ -63,7 +63,7 @@ SAMPLED_SHARE = 1.0  # the surfaces are rebuilt over at least this many times FI
 MIN_STABLE = 50  # stable cells needed for any estimate
 # The estimator's revision, part of a stored shift's key: a shift stored by an earlier one is
 # estimated again rather than reused.
-ESTIMATOR = 2
+ESTIMATOR = 3
 SAMPLE = 50_000  # cells a spread is measured on
 GRID_CELLS = 4_000_000  # most cells of the grid the shift is estimated on (coarser over large areas)
 GRID_CELL = 1.0  # m: the finest cell it is estimated on; decimetre shifts need no finer grid
@@ -77,7 +77,10 @@ class Shift:
     stable differences after the shift, and ``nmad``, which the level of detection takes, that of
     the change the ground evidence supports on them (the same where the versions hold no
     evidence); ``stable_share`` the share of compared cells found stable.
-    ``horizontal`` and ``vertical`` say which parts apply.
+    ``horizontal`` and ``vertical`` say which parts apply. ``datum_dz`` is how far the later
+    survey's heights stand over the earlier's by their vertical CRSs (the transformation
+    ``datum`` names, :func:`tdb.crs.height_offset`): applied always, before anything is estimated,
+    so ``dz`` is what is left beyond it.
     """
 
     dx: float = 0.0
@@ -91,11 +94,18 @@ class Shift:
     method: Coregistration = Coregistration.NONE
     horizontal: bool = False
     vertical: bool = False
+    datum_dz: float = 0.0
+    datum: str = ""
 
     @property
     def applied(self) -> bool:
         """Whether any part of the shift applies."""
-        return self.horizontal or self.vertical
+        return self.horizontal or self.vertical or self.datum_dz != 0.0
+
+    @property
+    def z_offset(self) -> float:
+        """How far the later survey's heights are lowered to meet the earlier's (m)."""
+        return self.datum_dz + (self.dz if self.vertical else 0.0)
 
     def apply(self, later: Raster) -> Raster:
         """``later`` aligned to the earlier survey: resampled at the horizontal shift, less the
@@ -103,8 +113,8 @@ class Shift:
         data = later.data
         if self.horizontal:
             data = resample(data, self.dx / later.cell, -self.dy / later.cell)
-        if self.vertical:
-            data = data - self.dz
+        if self.z_offset:
+            data = data - self.z_offset
         return replace(later, data=data)
 
     def to_json(self) -> dict[str, Any]:
@@ -125,6 +135,8 @@ class Shift:
             "stable_share": r(self.stable_share),
             "horizontal_applied": bool(self.horizontal),
             "vertical_applied": bool(self.vertical),
+            "datum_dz": r(self.datum_dz) or 0.0,
+            "datum": self.datum,
         }
 
     @classmethod
@@ -147,22 +159,26 @@ class Shift:
             method=parse(Coregistration, doc.get("method", "none")),
             horizontal=bool(doc.get("horizontal_applied")),
             vertical=bool(doc.get("vertical_applied")),
+            datum_dz=f("datum_dz", 0.0),
+            datum=str(doc.get("datum", "")),
         )
 
     def describe(self) -> str:
         """One line for a person: the shift, its uncertainty, what applies and the residual."""
         parts = [self._plan(3), f"dz {self.dz:+.3f} m (± {self.sigma_z:.3f})"]
         applied = [name for name, on in (("horizontal", self.horizontal), ("vertical", self.vertical)) if on]
-        return (
+        text = (
             f"{', '.join(parts)}; applied: {' and '.join(applied) or 'none'}; {self._spread()}; "
             f"{100 * self.stable_share:.0f} % of cells stable"
         )
+        return f"after the vertical datums' {self.datum_dz:+.3f} m: {text}" if self.datum else text
 
     def title(self) -> str:
         """The shift in a few words, for a map's title."""
         applied = "".join(name for name, on in (("xy", self.horizontal), ("z", self.vertical)) if on)
+        datum = f"datums {self.datum_dz:+.2f} m, then " if self.datum else ""
         return (
-            f"shift {self._plan(2)}, dz {self.dz:+.2f} "
+            f"{datum}shift {self._plan(2)}, dz {self.dz:+.2f} "
             f"(± {self.sigma_z:.2f}) m, {'applied: ' + applied if applied else 'not applied'}; "
             f"NMAD on stable ground {self._residual():.3f} m"
         )
@@ -199,7 +215,10 @@ def coregister(
     reuse: bool = True,
 ) -> Shift:
     """The shift that aligns version ``after`` to ``before`` (:func:`estimate_shift`), on their
-    rebuilt surfaces over the tiles both hold in ``bbox``.
+    rebuilt surfaces over the tiles both hold in ``bbox``. Where the two declare vertical CRSs
+    of different datums and PROJ holds a transformation between them offline
+    (:func:`tdb.crs.height_offset`), the later heights are first expressed in the earlier's
+    reference, with every method (``none`` too); the shift estimated is what is left.
 
     A shift found is stored in the database (where it is writable), and with ``reuse`` one
     stored for the same versions, method, level and area is returned instead of estimated again.
@@ -211,19 +230,25 @@ def coregister(
     InputError
         If they share no tiles there.
     """
-    check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=site(db, before))
+    at = site(db, before)
+    check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=at)
+    datum = None if at is None else height_offset(db.crs(before), db.crs(after), at=at)
+    datums: dict[str, Any] = {} if datum is None else {"datum_dz": datum.dz, "datum": datum.description}
     m = parse(Coregistration, method)
     if m is Coregistration.NONE:
-        return Shift(method=m)
+        return Shift(method=m, **datums)
     where = "all" if bbox is None else ",".join(f"{v:.3f}" for v in bbox)
     setting = f"{m} level {level} {where} estimator {ESTIMATOR}"
     stored = db.coregistration(before, after, setting) if reuse else None
     if stored is not None:
         return Shift.from_json(stored)
     first, second = estimation_grids(db, before, after, level=level, bbox=bbox)
+    if datum is not None:
+        second = replace(second, data=second.data - datum.dz)
     held = np.isfinite(first.data) & np.isfinite(second.data)
     depth = (depth_grid(db, before, first, held), depth_grid(db, after, first, held))
     shift = estimate_shift(first, second, method=m, noise=_noise(db, before, after), depth=depth)
+    shift = replace(shift, **datums)
     with contextlib.suppress(DatabaseError):  # a read-only database: the shift is found again next time
         db.store_coregistration(before, after, setting, shift.to_json())
     return shift
@@ -308,8 +333,8 @@ def shifted_lattice(lattice: NodeLattice, shift: Shift) -> NodeLattice:
     if shift.horizontal:
         # cubic: a bilinear read between nodes blunts a wall's or a ridge's crest into a change
         z = resample(_rebuilt(lattice), shift.dx / lattice.spacing, shift.dy / lattice.spacing, order=3)
-    if shift.vertical:
-        z = z - shift.dz
+    if shift.z_offset:
+        z = z - shift.z_offset
     return replace(lattice, z=z)
 
 

@@ -74,6 +74,8 @@ def between(first: Shift, second: Shift) -> Shift:
         residual_nmad=_larger(first.residual_nmad, second.residual_nmad),
         horizontal=first.horizontal or second.horizontal,
         vertical=first.vertical or second.vertical,
+        datum_dz=second.datum_dz - first.datum_dz,
+        datum=" and ".join(d for d in (first.datum, second.datum) if d),
     )
 
 

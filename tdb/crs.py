@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import math
+import warnings
+from dataclasses import dataclass
 from typing import Any
 
 import pyproj
+from pyproj.crs import CompoundCRS
+from pyproj.transformer import AreaOfInterest, TransformerGroup
 
 from tdb.errors import CRSError
 
@@ -106,16 +111,85 @@ def check_same_horizontal(
     )
 
 
-def height_reference_note(a: pyproj.CRS | None, b: pyproj.CRS | None, *, names: tuple[str, str]) -> str | None:
+def height_reference_note(
+    a: pyproj.CRS | None, b: pyproj.CRS | None, *, names: tuple[str, str], offset: HeightOffset | None = None
+) -> str | None:
     """A sentence for a person where two surveys' heights may not share a reference: their
-    vertical CRSs differ, or one declares none. None where both declare the same one, or neither."""
+    vertical CRSs differ, or one declares none; with the ``offset`` (:func:`height_offset`) that
+    expressed the later's heights in the earlier's reference, what it did. None where both declare
+    one datum (a unit was made metres when each survey was read), or neither declares any."""
     va, vb = vertical_part(a), vertical_part(b)
     if va is None and vb is None:
         return None
-    if va is not None and vb is not None and va.equals(vb):
+    if va is not None and vb is not None and (va.equals(vb) or va.datum == vb.datum):
         return None
 
     def heights(name: str, v: pyproj.CRS | None) -> str:
         return f"{name!r} declares no vertical CRS" if v is None else f"{name!r} gives {describe(v)} heights"
 
-    return f"{heights(names[0], va)} and {heights(names[1], vb)}: they may not share a height reference"
+    both = f"{heights(names[0], va)} and {heights(names[1], vb)}"
+    if offset is not None:
+        return f"{both}: {offset.describe(names)}"
+    if va is not None and vb is not None:
+        return f"{both}: PROJ holds no transformation between them here offline"
+    return f"{both}: they may not share a height reference"
+
+
+@dataclass(frozen=True)
+class HeightOffset:
+    """How a survey's heights read in another survey's vertical CRS (``reference``) at a site:
+    ``dz`` (m) is how far its heights stand above the same points' heights in the other reference
+    (subtract it to express them there), by the transformation PROJ describes as
+    ``description``, good to ``accuracy`` m (PROJ's figure; NaN where it gives none)."""
+
+    dz: float
+    description: str
+    accuracy: float
+    reference: str  # the vertical CRS the heights are expressed in
+
+    def describe(self, names: tuple[str, str]) -> str:
+        """One sentence for a person: what was transformed, by what, by how much."""
+        accuracy = f" (± {self.accuracy:.2f} m)" if math.isfinite(self.accuracy) else ""
+        return (
+            f"heights of {names[1]!r} expressed in {self.reference}, {-self.dz:+.3f} m here{accuracy}, "
+            f"by pyproj ({self.description})"
+        )
+
+
+def height_offset(
+    earlier: pyproj.CRS | None, later: pyproj.CRS | None, *, at: tuple[float, float]
+) -> HeightOffset | None:
+    """How far the ``later`` survey's heights stand above the same ground's in the ``earlier``
+    one's vertical CRS at the site ``at`` (horizontal coordinates of both), by the best
+    transformation PROJ holds offline for that place.
+
+    None where there is nothing to transform (either declares no vertical CRS, or both share
+    one datum: a unit was already made metres when the survey was read), and where PROJ holds no
+    transformation but a ballpark one (an offset of zero, which it gives where the real one
+    needs a grid it does not have): then only co-registration can align the heights.
+    """
+    va, vb = vertical_part(earlier), vertical_part(later)
+    plan = horizontal_part(earlier)
+    if va is None or vb is None or plan is None or va.datum == vb.datum:
+        return None
+    try:
+        lon, lat = pyproj.Transformer.from_crs(plan, 4326, always_xy=True).transform(*at)
+        source = CompoundCRS(f"{plan.name} + {vb.name}", [plan, vb])
+        target = CompoundCRS(f"{plan.name} + {va.name}", [plan, va])
+        with warnings.catch_warnings():  # the best transformation's missing grid is no news: we say so
+            warnings.simplefilter("ignore")
+            group = TransformerGroup(
+                source, target, always_xy=True, area_of_interest=AreaOfInterest(lon, lat, lon, lat)
+            )
+    except pyproj.exceptions.ProjError:
+        return None
+    for t in group.transformers:
+        if "ballpark" in t.description.lower():
+            continue
+        z = t.transform(at[0], at[1], 0.0)[2]
+        if not math.isfinite(z):
+            continue
+        factor = va.axis_info[0].unit_conversion_factor if va.axis_info else 1.0
+        accuracy = float(t.accuracy) if t.accuracy is not None and t.accuracy >= 0 else float("nan")
+        return HeightOffset(-float(z) * factor, t.description, accuracy, describe(va))
+    return None

@@ -313,3 +313,75 @@ def test_gentle_ground_carries_no_horizontal_shift(tmp_path, cover):
     s = coregister(db, "a", "b")
     assert not s.horizontal
     assert abs(s.dz) < 0.02
+
+
+def test_height_offset_between_vertical_datums_offline():
+    from pyproj import CRS
+
+    from tdb.crs import height_offset, height_reference_note
+
+    belgium = (600000.0, 5640000.0)  # ETRS89 / UTM 31N
+    evrf = CRS.from_user_input("EPSG:25831+5621")  # EVRF2007 heights
+    ostend = CRS.from_user_input("EPSG:25831+5710")  # Belgium's Ostend heights (TAW)
+    offset = height_offset(evrf, ostend, at=belgium)
+    assert offset is not None
+    # Ostend heights stand about 2.3 m above EVRF2007's for the same ground
+    assert 2.2 < offset.dz < 2.45 and offset.accuracy <= 0.2
+    back = height_offset(ostend, evrf, at=belgium)
+    assert back is not None and back.dz == pytest.approx(-offset.dz, abs=1e-6)
+    note = height_reference_note(evrf, ostend, names=("a", "b"), offset=offset)
+    assert note and "Ostend" in note and f"{-offset.dz:+.3f} m" in note
+    # nothing to do: no vertical CRS, one datum in two units, or the same CRS
+    utm17 = (600000.0, 4800000.0)
+    assert height_offset(CRS.from_epsg(26917), CRS.from_user_input("EPSG:26917+5703"), at=utm17) is None
+    navd88_m, navd88_ft = CRS.from_user_input("EPSG:26917+5703"), CRS.from_user_input("EPSG:26917+6360")
+    assert height_offset(navd88_m, navd88_ft, at=utm17) is None
+    assert height_reference_note(navd88_m, navd88_ft, names=("a", "b")) is None
+    # CGVD28 to CGVD2013 needs a geoid grid PROJ does not ship: no ballpark zero is taken for it
+    cgvd28, cgvd2013 = CRS.from_user_input("EPSG:26917+5713"), CRS.from_user_input("EPSG:26917+6647")
+    assert height_offset(cgvd28, cgvd2013, at=utm17) is None
+    assert "no transformation" in (height_reference_note(cgvd28, cgvd2013, names=("a", "b")) or "")
+
+
+def test_surveys_on_two_vertical_datums_compare_once_transformed(tmp_path):
+    """The same re-survey delivered in Ostend heights rather than EVRF2007: expressed in the
+    earlier survey's reference by PROJ, it reads the same changes, with every method."""
+    import dataclasses
+
+    from pyproj import CRS
+
+    import tdb
+    from ingest.pipeline import ingest
+    from ingest.synth import apply_changes, make_scene, sample
+    from queries.changes import detect
+    from queries.coregister import coregister
+    from tdb.crs import height_offset
+
+    scene = make_scene(seed=3, size=120, origin=(600000.0, 5640000.0), crs="EPSG:25831+5621")
+    later, _ = apply_changes(scene, seed=3)
+    resurvey = sample(later, density=2, seed=4)
+    ostend = CRS.from_user_input("EPSG:25831+5710")
+    offset = height_offset(resurvey.crs, ostend, at=(600060.0, 5640060.0))
+    assert offset is not None
+    in_ostend = dataclasses.replace(resurvey, xyz=resurvey.xyz + [0.0, 0.0, offset.dz], crs=ostend)
+    db = tdb.open(tmp_path / "d.tdb", create=True)
+    ingest(sample(scene, density=2, seed=3), db, version="a")
+    ingest(resurvey, db, version="b")
+    ingest(in_ostend, db, version="b_ostend")
+    for method in ("none", "auto"):
+        same = coregister(db, "a", "b", method=method)
+        other = coregister(db, "a", "b_ostend", method=method)
+        assert same.datum_dz == 0.0 and not same.datum
+        assert other.datum_dz == pytest.approx(offset.dz, abs=0.01) and "Ostend" in other.datum
+        assert other.z_offset == pytest.approx(same.z_offset + offset.dz, abs=0.01)
+        assert other.to_json()["datum_dz"] == pytest.approx(offset.dz, abs=1e-3)
+        found = detect(db, "a", "b", shift=same)
+        moved = detect(db, "a", "b_ostend", shift=other)
+        assert found
+        assert [f["properties"]["kind"] for f in moved] == [f["properties"]["kind"] for f in found]
+        assert sum(f["properties"]["area"] for f in moved) == pytest.approx(
+            sum(f["properties"]["area"] for f in found), rel=0.05
+        )
+    # as it is, 2.3 m of datum reads as change everywhere
+    raw = detect(db, "a", "b_ostend")
+    assert sum(f["properties"]["area"] for f in raw) > 10 * sum(f["properties"]["area"] for f in found)

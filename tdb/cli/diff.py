@@ -10,7 +10,7 @@ import click
 
 from tdb.cli.options import bbox_option, db_option, level_option, workers_option
 from tdb.cli.output import check_files, check_output, emit, output_options
-from tdb.crs import check_same_horizontal, height_reference_note
+from tdb.crs import check_same_horizontal, height_offset, height_reference_note
 from tdb.options import Coregistration
 
 if TYPE_CHECKING:  # the library is imported when the command runs
@@ -85,9 +85,12 @@ def command(
         plan = check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=site(db, before))
         if plan:
             click.echo(f"note: {plan}; co-registration finds what is left", err=True)
-        note = height_reference_note(db.crs(before), db.crs(after), names=(before, after))
+        at = site(db, before)
+        datums = None if at is None else height_offset(db.crs(before), db.crs(after), at=at)
+        note = height_reference_note(db.crs(before), db.crs(after), names=(before, after), offset=datums)
         if note:
-            click.echo(f"note: {note}; co-registration on stable ground aligns them", err=True)
+            rest = "" if datums else "; co-registration on stable ground aligns them"
+            click.echo(f"note: {note}{rest}", err=True)
         shift = align(db, before, after, level=level, bbox=bbox, method=coregister)
         if shift.method is not Coregistration.NONE:
             click.echo(f"co-registration ({shift.method}): {shift.describe()}", err=True)
