@@ -19,7 +19,9 @@ from scipy.sparse.csgraph import connected_components, dijkstra, minimum_spannin
 from scipy.spatial import cKDTree
 
 SPUR_ROUNDS = 2  # spur edges cut, one layer per round
-_COS45 = float(np.sqrt(0.5))
+# Arms of a junction headed more apart than this (degrees) are distinct lines: rails of a line two
+# tiles wide head a few degrees apart at an arm's reach, tributaries join at any angle.
+ARM_ANGLE = 45.0
 
 
 def centrelines(
@@ -83,8 +85,8 @@ def branches(
 ) -> list[NDArray[np.intp]]:
     """The points (x, y) of one object split where distinct lines meet: at a junction of its
     spanning tree (points joined at most ``link`` apart) from which three or more arms run at
-    least ``reach`` on, headed more than 45° apart. Each branch's point indices; the junction's
-    points belong to every arm that leaves them. Points the tree cannot join (a group of tiles
+    least ``reach`` on, headed more than :data:`ARM_ANGLE` apart. Each branch's point indices;
+    the junction's points belong to every arm that leaves them. Points the tree cannot join (a group of tiles
     within reach of each other can hold lines farther apart than ``link``) are separate lines as
     well. Arms shorter than ``reach`` are left out; one branch of every point where the tree is
     one line.
@@ -141,11 +143,12 @@ def _headings(tree: Any, pts: NDArray[np.float64], j: int, reach: float) -> list
 
 def _meets(headings: list[NDArray[np.float64]]) -> bool:
     """Whether arms with these headings are distinct lines meeting: three or more headed more
-    than 45° apart. A line two tiles wide spans a ladder whose rungs are junctions, but every
-    arm of a rung heads along the line."""
+    than :data:`ARM_ANGLE` apart. A line two tiles wide spans a ladder whose rungs are
+    junctions, but every arm of a rung heads along the line."""
     distinct: list[NDArray[np.float64]] = []
+    apart = float(np.cos(np.radians(ARM_ANGLE)))
     for h in headings:
-        if all(float(h @ other) < _COS45 for other in distinct):
+        if all(float(h @ other) < apart for other in distinct):
             distinct.append(h)
     return len(distinct) >= 3
 
