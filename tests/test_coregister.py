@@ -363,7 +363,7 @@ def test_surveys_on_two_vertical_datums_compare_once_transformed(tmp_path):
     ostend = CRS.from_user_input("EPSG:25831+5710")
     offset = height_offset(resurvey.crs, ostend, at=(600060.0, 5640060.0))
     assert offset is not None
-    in_ostend = dataclasses.replace(resurvey, xyz=resurvey.xyz + [0.0, 0.0, offset.dz], crs=ostend)
+    in_ostend = dataclasses.replace(resurvey, xyz=resurvey.xyz + np.array([0.0, 0.0, offset.dz]), crs=ostend)
     db = tdb.open(tmp_path / "d.tdb", create=True)
     ingest(sample(scene, density=2, seed=3), db, version="a")
     ingest(resurvey, db, version="b")
