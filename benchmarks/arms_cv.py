@@ -1,21 +1,25 @@
-"""The least angle between the arms of a junction, chosen by leave-one-scene-out.
+"""Where a line's tiles are cut into lines judged alone, chosen by leave-one-scene-out.
 
 Two ditches (or ridges) that meet are one group of touching tiles, and neither its height along
 it nor its width is that of one form: :func:`queries.centreline.branches` splits it where three
 or more arms run at least an arm's length (:data:`queries.match.ARM`) from a junction, headed
 more than ``queries.centreline.ARM_ANGLE`` apart, and each arm is judged alone. A tributary may
 join at an acute angle; the rails of a line two tiles wide head a few degrees apart.
+``--grid bend``: a line is cut too where it turns by more than ``queries.centreline.BEND``
+between arms of an arm's length (none: it is not), where one line may run on into another of
+another section (a shallow ditch into a deep one).
 
 Each scene is ingested once and asked ``SELECT ditch`` and ``SELECT ridge`` with every angle of
 the grid, scored as :mod:`benchmarks.spread_cv` scores; one angle serves both filters, so the
 choice is on the mean of a scene's ditch and ridge F1, each scene held out in turn (the plain
 seeds 1–10 and the rugged seeds 21–35; the rugged seeds 1–5 are never chosen on).
-    python -m benchmarks.arms_cv [--workers 2]
+    python -m benchmarks.arms_cv [--grid angle|bend] [--workers 2]
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
@@ -35,6 +39,11 @@ from ingest.synth import make_scene, sample
 from queries.match import find
 
 ANGLES = (20.0, 30.0, 35.0, 40.0, 45.0, 60.0)  # degrees
+# per grid: the queries.centreline constant it sets, its values by label, the file it is saved as
+GRIDS: dict[str, tuple[str, dict[str, float | None], str]] = {
+    "angle": ("ARM_ANGLE", {f"{a:g}": a for a in ANGLES}, "arms_cv"),
+    "bend": ("BEND", {"none": None, "30": 30.0, "45": 45.0, "60": 60.0, "90": 90.0}, "bend_cv"),
+}
 KINDS = ("ditch", "ridge")
 
 
@@ -42,33 +51,33 @@ def _name(kind: str, seed: int) -> str:
     return f"{kind} {seed}"
 
 
-def evaluate(case: tuple[str, int]) -> dict[str, dict[str, dict[str, float]]]:
-    """Per angle and filter, recall / precision / F1 on one scene."""
+def evaluate(case: tuple[str, int], *, grid: str = "angle") -> dict[str, dict[str, dict[str, float]]]:
+    """Per setting of ``grid`` and filter, recall / precision / F1 on one scene."""
+    constant, values, _ = GRIDS[grid]
     kind, seed = case
     rugged = kind == "rugged"
     scene = make_scene(seed=seed, size=400.0 if rugged else 300.0, terrain="rugged" if rugged else "plain")
     truth = truths(scene)
-    shipped = queries.centreline.ARM_ANGLE
+    shipped = getattr(queries.centreline, constant)
     out: dict[str, dict[str, dict[str, float]]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         db = tdb.open(Path(tmp) / "s.tdb", create=True)
         ingest(sample(scene, density=DENSITY, seed=seed), db, version="v", options=IngestOptions(exclude=()))
-        for angle in ANGLES:
-            queries.centreline.ARM_ANGLE = angle
-            out[f"{angle:g}"] = {
+        for label, value in values.items():
+            setattr(queries.centreline, constant, value)
+            out[label] = {
                 name: figures(truth[name], shapely.union_all([m.geometry for m in find(db, "v", name)]))
                 for name in KINDS
             }
-    queries.centreline.ARM_ANGLE = shipped
+    setattr(queries.centreline, constant, shipped)
     return out
 
 
-def summarise(runs: dict[str, Any]) -> dict[str, Any]:
+def summarise(runs: dict[str, Any], settings: list[str]) -> dict[str, Any]:
     """The angle chosen on all scenes, each scene's held-out choice and score, and the means per
     angle and filter on the scenes chosen on and on the others."""
     chosen_on = [_name(*c) for c in CHOSEN_ON]
     never = [_name(*c) for c in NEVER_CHOSEN_ON]
-    settings = [f"{a:g}" for a in ANGLES]
 
     def both(n: str, s: str) -> float:
         return float(np.mean([runs[n][s][k]["f1"] for k in KINDS]))
@@ -95,19 +104,22 @@ def summarise(runs: dict[str, Any]) -> dict[str, Any]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--grid", choices=sorted(GRIDS), default="angle")
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
+    constant, values, result = GRIDS[args.grid]
     cases = CHOSEN_ON + NEVER_CHOSEN_ON
     # spawned, not forked: a pool forked from a process whose libraries hold threads can hang
     with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-        runs = {_name(*c): r for c, r in zip(cases, pool.map(evaluate, cases), strict=True)}
-    summary = summarise(runs)
+        scored = pool.map(functools.partial(evaluate, grid=args.grid), cases)
+        runs = {_name(*c): r for c, r in zip(cases, scored, strict=True)}
+    summary = summarise(runs, list(values))
     print("tuned", summary["tuned"], "held out F1", round(summary["held_out_f1"], 4))
     for s, per in summary["means"].items():
         print(s, "chosen on", {k: {m: round(v, 3) for m, v in d.items()} for k, d in per.items()})
         never = summary["never_chosen_on"][s]
         print("   never chosen on", {k: {m: round(v, 3) for m, v in d.items()} for k, d in never.items()})
-    print(save("arms_cv", {"density": DENSITY, "angles": ANGLES, "runs": runs, **summary}))
+    print(save(result, {"density": DENSITY, "constant": constant, "settings": values, "runs": runs, **summary}))
 
 
 if __name__ == "__main__":

@@ -22,6 +22,9 @@ SPUR_ROUNDS = 2  # spur edges cut, one layer per round
 # Arms of a junction headed more apart than this (degrees) are distinct lines: rails of a line two
 # tiles wide head a few degrees apart at an arm's reach, tributaries join at any angle.
 ARM_ANGLE = 45.0
+# A line that turns by more than this (degrees) between arms of an arm's length is cut there too;
+# None: lines are cut only where three arms meet.
+BEND: float | None = None
 
 
 def centrelines(
@@ -102,6 +105,8 @@ def branches(
     tree = (mst + mst.T).tocsr()
     degree = np.diff(tree.indptr)
     cut = [j for j in np.flatnonzero(degree >= 3) if _meets(_headings(tree, pts, int(j), reach))]
+    if BEND is not None:
+        cut += [j for j in np.flatnonzero(degree == 2) if _bends(_headings(tree, pts, int(j), reach))]
     rest = tree.tolil()
     for j in cut:
         rest[j, :] = 0
@@ -151,6 +156,14 @@ def _meets(headings: list[NDArray[np.float64]]) -> bool:
         if all(float(h @ other) < apart for other in distinct):
             distinct.append(h)
     return len(distinct) >= 3
+
+
+def _bends(headings: list[NDArray[np.float64]]) -> bool:
+    """Whether a line's two arms leave a point headed less than 180° − :data:`BEND` apart: a
+    corner, where one line may run on into another of another section."""
+    if BEND is None or len(headings) != 2:
+        return False
+    return bool(float(headings[0] @ headings[1]) > float(np.cos(np.radians(180.0 - BEND))))
 
 
 def _extent(pts: NDArray[np.float64]) -> float:
