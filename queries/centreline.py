@@ -22,9 +22,10 @@ SPUR_ROUNDS = 2  # spur edges cut, one layer per round
 # Arms of a junction headed more apart than this (degrees) are distinct lines: rails of a line two
 # tiles wide head a few degrees apart at an arm's reach, tributaries join at any angle.
 ARM_ANGLE = 45.0
-# A line that turns by more than this (degrees) between arms of an arm's length is cut there too;
-# None: lines are cut only where three arms meet.
-BEND: float | None = None
+# A line that turns by more than this (degrees) between arms of an arm's length is cut there too,
+# at an acute corner, where one line may run on into another (None: cut only where three arms
+# meet). Chosen by leave-one-scene-out (benchmarks/arms_cv.py --grid bend).
+BEND: float | None = 90.0
 
 
 def centrelines(
