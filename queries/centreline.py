@@ -25,7 +25,7 @@ ARM_ANGLE = 45.0
 # A line that turns by more than this (degrees) between arms of an arm's length is cut there too,
 # at an acute corner, where one line may run on into another (None: cut only where three arms
 # meet). Chosen by leave-one-scene-out (benchmarks/arms_cv.py --grid bend).
-BEND: float | None = 90.0
+BEND: float | None = None
 
 
 def centrelines(
@@ -107,7 +107,11 @@ def branches(
     degree = np.diff(tree.indptr)
     cut = [j for j in np.flatnonzero(degree >= 3) if _meets(_headings(tree, pts, int(j), reach))]
     if BEND is not None:
-        cut += [j for j in np.flatnonzero(degree == 2) if _bends(_headings(tree, pts, int(j), reach))]
+        cut += [
+            j
+            for j in np.flatnonzero(degree >= 2)
+            if j not in cut and _bends(_arms(tree, pts, int(j), reach), reach)
+        ]
     rest = tree.tolil()
     for j in cut:
         rest[j, :] = 0
@@ -128,9 +132,14 @@ def branches(
 
 
 def _headings(tree: Any, pts: NDArray[np.float64], j: int, reach: float) -> list[NDArray[np.float64]]:
-    """The headings (unit vectors) of the arms leaving point ``j`` of a spanning tree (CSR, both
-    directions, edges shorter than ``reach``) of ``pts`` that run at least ``reach`` on from it
-    along the tree, each towards its point ``reach`` along; longest arm first."""
+    """The headings (unit vectors) of :func:`_arms`."""
+    return [v / np.hypot(*v) for v in _arms(tree, pts, j, reach)]
+
+
+def _arms(tree: Any, pts: NDArray[np.float64], j: int, reach: float) -> list[NDArray[np.float64]]:
+    """The arms leaving point ``j`` of a spanning tree (CSR, both directions, edges shorter than
+    ``reach``) of ``pts`` that run at least ``reach`` on from it along the tree, each as the
+    vector to its point ``reach`` along; longest arm first."""
     dist, pred = dijkstra(tree, indices=j, limit=2 * reach, return_predecessors=True)
     near = np.flatnonzero(np.isfinite(dist))
     near = near[near != j]
@@ -143,7 +152,7 @@ def _headings(tree: Any, pts: NDArray[np.float64], j: int, reach: float) -> list
         far = float(dist[members].max())
         heading = pts[members[np.argmin(np.abs(dist[members] - reach))]] - pts[j]
         if far >= reach and heading.any():
-            ends.append((far, heading / np.hypot(*heading)))
+            ends.append((far, heading))
     return [h for _, h in sorted(ends, key=lambda e: -e[0])]
 
 
@@ -159,12 +168,16 @@ def _meets(headings: list[NDArray[np.float64]]) -> bool:
     return len(distinct) >= 3
 
 
-def _bends(headings: list[NDArray[np.float64]]) -> bool:
-    """Whether a line's two arms leave a point headed less than 180° − :data:`BEND` apart: a
-    corner, where one line may run on into another of another section."""
-    if BEND is None or len(headings) != 2:
+def _bends(arms: list[NDArray[np.float64]], reach: float) -> bool:
+    """Whether a line's two ``arms`` (:func:`_arms`) leave a point headed less than
+    180° − :data:`BEND` apart, and more than :data:`ARM_ANGLE` apart (as distinct lines): a
+    corner, where one line may run on into another of another section. Each arm must run on
+    away from the point, its point ``reach`` along at least half that far off: the rails of a
+    line two tiles wide meet in hairpins of its spanning tree, whose arms double back."""
+    if BEND is None or len(arms) != 2 or min(np.hypot(*a) for a in arms) < reach / 2:
         return False
-    return bool(float(headings[0] @ headings[1]) > float(np.cos(np.radians(180.0 - BEND))))
+    dot = float(arms[0] @ arms[1]) / float(np.hypot(*arms[0]) * np.hypot(*arms[1]))
+    return float(np.cos(np.radians(180.0 - BEND))) < dot < float(np.cos(np.radians(ARM_ANGLE)))
 
 
 def _extent(pts: NDArray[np.float64]) -> float:

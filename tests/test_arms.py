@@ -40,6 +40,26 @@ def test_lines_farther_apart_than_the_link_are_two():
     assert _arms(x, y) == [30, 30]
 
 
+@pytest.mark.parametrize("between", [50.0, 60.0, 80.0])
+def test_a_line_turning_back_at_an_acute_corner_is_two(between):
+    # Two legs 40 m long from one corner, their headings ``between`` degrees apart: the line
+    # turns through more than a right angle there (BEND), as where one ditch runs on into
+    # another. The points nearest the corner, whose own arms bend as well, may go to neither.
+    t = np.arange(2.0, 42.0, 2.0)
+    a = np.radians(between)
+    x, y = np.r_[0.0, t, t * np.cos(a)], np.r_[0.0, 0 * t, t * np.sin(a)]
+    arms = _arms(x, y)
+    assert len(arms) == 2 and min(arms) >= 15
+
+
+@pytest.mark.parametrize("between", [100.0, 135.0, 180.0])
+def test_a_line_turning_a_right_angle_or_less_is_one(between):
+    t = np.arange(2.0, 42.0, 2.0)
+    a = np.radians(between)
+    x, y = np.r_[0.0, t, t * np.cos(a)], np.r_[0.0, 0 * t, t * np.sin(a)]
+    assert _arms(x, y) == [41]
+
+
 @settings(max_examples=30, deadline=None)
 @given(st.floats(0, np.pi), st.floats(0.0, 0.02), st.floats(40.0, 150.0), st.floats(0.5, 9.0))
 def test_one_line_is_never_split(angle, curvature, length, spur):
