@@ -11,7 +11,12 @@ from typing import Any
 
 from benchmarks.common import RESULTS, ROOT
 from benchmarks.common import machine_line as _machine
-from benchmarks.report_feature_peers import feature_peers_section, notch_cv_section, spread_cv_section
+from benchmarks.report_feature_peers import (
+    arms_cv_section,
+    feature_peers_section,
+    notch_cv_section,
+    spread_cv_section,
+)
 from benchmarks.report_lod import lod_cv_section, same_ground_section
 from benchmarks.report_objects import crown_section, objects_section
 from benchmarks.report_roofs import ground_roofs_section
@@ -1110,6 +1115,9 @@ def main() -> None:
     spread_cv_section(out, spread, _machine(spread) if spread else "")
     notch = _load("notch_cv")
     notch_cv_section(out, notch, _machine(notch) if notch else "")
+    for name in ("arms_cv", "bend_cv"):
+        arms = _load(name)
+        arms_cv_section(out, arms, _machine(arms) if arms else "")
     cv = _load("objects_cv")
     objects_section(out, cv, _load("objects_speed"), _machine(cv) if cv else "")
     crowns = _load("crown_cv")

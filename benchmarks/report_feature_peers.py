@@ -173,3 +173,52 @@ def notch_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) -
         f"{d['means']['none']['f1']:.4f}). Shipped: {d['tuned']} m.",
         "",
     ]
+
+
+_ARMS_TITLES = {
+    "ARM_ANGLE": (
+        "The least angle between a junction's arms (issue 30)",
+        "`python -m benchmarks.arms_cv`: a group of line tiles is cut where three or more arms of 20 m meet, "
+        "headed more than this many degrees apart (`queries.centreline.ARM_ANGLE`)",
+        "degrees",
+    ),
+    "BEND": (
+        "Lines cut at acute corners (issue 30)",
+        "`python -m benchmarks.arms_cv --grid bend`: a group of line tiles that fails as a whole is cut too "
+        "where it turns by more than this many degrees between arms of 20 m that head more than "
+        "`ARM_ANGLE` apart (`queries.centreline.BEND`; none: it is not), where one line may run on into "
+        "another of another section",
+        "turn, degrees",
+    ),
+}
+
+
+def arms_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) -> None:
+    """Where a line's tiles are cut into lines judged alone, chosen by leave-one-scene-out."""
+    if doc is None:
+        return
+    title, what, setting = _ARMS_TITLES[doc.get("constant", "ARM_ANGLE")]
+    out += [
+        f"## {title}",
+        "",
+        f"{what}. One setting serves the ditch and the ridge filters: chosen by leave-one-scene-out on the mean "
+        "of a scene's ditch and ridge F1, on the plain seeds 1–10 and the rugged seeds 21–35; the rugged seeds "
+        f"1–5 are never chosen on. {doc['density']} pulses/m². Machine: {machine}.",
+        "",
+        f"| {setting} | ditch, chosen on: R / P / F1 | ridge, chosen on | ditch, never chosen on | "
+        "ridge, never chosen on |",
+        "|---|---|---|---|---|",
+    ]
+    for s, per in doc["means"].items():
+        mark = " (chosen)" if s == doc["tuned"] else ""
+        never = doc["never_chosen_on"][s]
+        out.append(
+            f"| {s}{mark} | {_rpf(per['ditch'])} | {_rpf(per['ridge'])} | {_rpf(never['ditch'])} | "
+            f"{_rpf(never['ridge'])} |"
+        )
+    out += [
+        "",
+        f"- Chosen on all {doc['tuned']}; without each scene {_fold_picks(doc['held_out'])} of the folds; held "
+        f"out mean F1 {doc['held_out_f1']:.4f} (chosen on all: {doc['tuned_f1']:.4f}).",
+        "",
+    ]

@@ -25,7 +25,7 @@ ARM_ANGLE = 45.0
 # A line that turns by more than this (degrees) between arms of an arm's length is cut there too,
 # at an acute corner, where one line may run on into another (None: cut only where three arms
 # meet). Chosen by leave-one-scene-out (benchmarks/arms_cv.py --grid bend).
-BEND: float | None = None
+BEND: float | None = 90.0
 
 
 def centrelines(
