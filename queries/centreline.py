@@ -105,13 +105,10 @@ def branches(
     mst = _spanning_tree(pts, link)
     tree = (mst + mst.T).tocsr()
     degree = np.diff(tree.indptr)
-    cut = [j for j in np.flatnonzero(degree >= 3) if _meets(_headings(tree, pts, int(j), reach))]
+    cut = [int(j) for j in np.flatnonzero(degree >= 3) if _meets(_headings(tree, pts, int(j), reach))]
     if BEND is not None:
-        cut += [
-            j
-            for j in np.flatnonzero(degree >= 2)
-            if j not in cut and _bends(_arms(tree, pts, int(j), reach), reach)
-        ]
+        turns = np.setdiff1d(np.flatnonzero(degree >= 2), cut)
+        cut += [int(j) for j in turns[_corners(tree, pts, turns, reach)]]
     rest = tree.tolil()
     for j in cut:
         rest[j, :] = 0
@@ -168,16 +165,53 @@ def _meets(headings: list[NDArray[np.float64]]) -> bool:
     return len(distinct) >= 3
 
 
-def _bends(arms: list[NDArray[np.float64]], reach: float) -> bool:
-    """Whether a line's two ``arms`` (:func:`_arms`) leave a point headed less than
-    180° − :data:`BEND` apart, and more than :data:`ARM_ANGLE` apart (as distinct lines): a
-    corner, where one line may run on into another of another section. Each arm must run on
-    away from the point, its point ``reach`` along at least half that far off: the rails of a
-    line two tiles wide meet in hairpins of its spanning tree, whose arms double back."""
-    if BEND is None or len(arms) != 2 or min(np.hypot(*a) for a in arms) < reach / 2:
-        return False
-    dot = float(arms[0] @ arms[1]) / float(np.hypot(*arms[0]) * np.hypot(*arms[1]))
-    return float(np.cos(np.radians(180.0 - BEND))) < dot < float(np.cos(np.radians(ARM_ANGLE)))
+CORNER_ROWS = 256  # points whose arms are found in one pass: a pass holds this many rows of the tree's points
+
+
+def _corners(tree: Any, pts: NDArray[np.float64], js: NDArray[np.intp], reach: float) -> NDArray[np.bool_]:
+    """Which of the points ``js`` of a spanning tree (as :func:`_arms` takes it) are corners: each
+    has two arms (:func:`_arms`), headed less than 180° − :data:`BEND` apart and more than
+    :data:`ARM_ANGLE` apart (as distinct lines), where one line may run on into another of
+    another section. Each arm must run on away from the point, its point ``reach`` along at least
+    half that far off: the rails of a line two tiles wide meet in hairpins of its spanning tree,
+    whose arms double back. The arms of many points are found at once, as :func:`_arms` finds
+    one point's."""
+    out = np.zeros(len(js), bool)
+    if BEND is None:
+        return out
+    for s in range(0, len(js), CORNER_ROWS):
+        out[s : s + CORNER_ROWS] = _corners_of(tree, pts, js[s : s + CORNER_ROWS], reach)
+    return out
+
+
+def _corners_of(tree: Any, pts: NDArray[np.float64], js: NDArray[np.intp], reach: float) -> NDArray[np.bool_]:
+    assert BEND is not None
+    m, n = len(js), len(pts)
+    dist, pred = dijkstra(tree, indices=js, limit=2 * reach, return_predecessors=True)
+    near = np.isfinite(dist)
+    near[np.arange(m), js] = False
+    r, k = np.nonzero(near)
+    first = k.copy()  # each point's first step from its row's point, found by walking back
+    while (back := pred[r, first] != js[r]).any():
+        first[back] = pred[r[back], first[back]]
+    d = dist[r, k]
+    key = r * n + first
+    order = np.lexsort((np.abs(d - reach), key))  # per arm, its point nearest ``reach`` along first
+    starts = np.flatnonzero(np.r_[True, key[order][1:] != key[order][:-1]])
+    far = np.maximum.reduceat(d[order], starts)
+    row = r[order][starts]
+    vector = pts[k[order][starts]] - pts[js[row]]
+    long = (far >= reach) & vector.any(axis=1)
+    row, vector = row[long], vector[long]
+    two = np.flatnonzero(np.bincount(row, minlength=m)[row] == 2)  # arms of rows with two, in pairs
+    a, b, of = vector[two[0::2]], vector[two[1::2]], row[two[0::2]]
+    la, lb = np.hypot(*a.T), np.hypot(*b.T)
+    cos = np.einsum("ij,ij->i", a, b) / (la * lb)
+    corner = (np.minimum(la, lb) >= reach / 2) & (cos > np.cos(np.radians(180.0 - BEND)))
+    corner &= cos < np.cos(np.radians(ARM_ANGLE))
+    out = np.zeros(m, bool)
+    out[of[corner]] = True
+    return out
 
 
 def _extent(pts: NDArray[np.float64]) -> float:
