@@ -119,7 +119,9 @@ def main() -> None:
         print(s, "chosen on", {k: {m: round(v, 3) for m, v in d.items()} for k, d in per.items()})
         never = summary["never_chosen_on"][s]
         print("   never chosen on", {k: {m: round(v, 3) for m, v in d.items()} for k, d in never.items()})
-    print(save(result, {"density": DENSITY, "constant": constant, "settings": values, "runs": runs, **summary}))
+    shipped = getattr(queries.centreline, constant)
+    doc = {"density": DENSITY, "constant": constant, "settings": values, "shipped": shipped, "runs": runs}
+    print(save(result, {**doc, **summary}))
 
 
 if __name__ == "__main__":

@@ -216,9 +216,13 @@ def arms_cv_section(out: list[str], doc: dict[str, Any] | None, machine: str) ->
             f"| {s}{mark} | {_rpf(per['ditch'])} | {_rpf(per['ridge'])} | {_rpf(never['ditch'])} | "
             f"{_rpf(never['ridge'])} |"
         )
+    shipped = doc.get("shipped")
+    label = "none" if shipped is None else f"{shipped:g}"
+    tie = len({round(per["ditch"]["f1"] + per["ridge"]["f1"], 6) for per in doc["means"].values()}) == 1
     out += [
         "",
         f"- Chosen on all {doc['tuned']}; without each scene {_fold_picks(doc['held_out'])} of the folds; held "
-        f"out mean F1 {doc['held_out_f1']:.4f} (chosen on all: {doc['tuned_f1']:.4f}).",
+        f"out mean F1 {doc['held_out_f1']:.4f} (chosen on all: {doc['tuned_f1']:.4f}). Shipped: {label}"
+        + (" (every setting ties on the scenes chosen on; the choice is the grid's first)." if tie else "."),
         "",
     ]
