@@ -89,11 +89,11 @@ def branches(
 ) -> list[NDArray[np.intp]]:
     """The points (x, y) of one object split where distinct lines meet: at a junction of its
     spanning tree (points joined at most ``link`` apart) from which three or more arms run at
-    least ``reach`` on, headed more than :data:`ARM_ANGLE` apart. Each branch's point indices;
-    the junction's points belong to every arm that leaves them. Points the tree cannot join (a group of tiles
-    within reach of each other can hold lines farther apart than ``link``) are separate lines as
-    well. Arms shorter than ``reach`` are left out; one branch of every point where the tree is
-    one line.
+    least ``reach`` on, headed more than :data:`ARM_ANGLE` apart, and at acute corners
+    (:func:`_corners`). Each branch's point indices; the junction's points belong to every arm
+    that leaves them. Points the tree cannot join (a group of tiles within reach of each other can
+    hold lines farther apart than ``link``) are separate lines as well. Arms shorter than
+    ``reach`` are left out; one branch of every point where the tree is one line.
 
     Two ridges that cross or meet are one group of touching tiles, but neither its outline nor
     the height along it is that of one form: each arm is.
@@ -185,6 +185,7 @@ def _corners(tree: Any, pts: NDArray[np.float64], js: NDArray[np.intp], reach: f
 
 
 def _corners_of(tree: Any, pts: NDArray[np.float64], js: NDArray[np.intp], reach: float) -> NDArray[np.bool_]:
+    """:func:`_corners` of up to :data:`CORNER_ROWS` points, in one run of Dijkstra."""
     assert BEND is not None
     m, n = len(js), len(pts)
     dist, pred = dijkstra(tree, indices=js, limit=2 * reach, return_predecessors=True)
