@@ -385,3 +385,30 @@ def test_surveys_on_two_vertical_datums_compare_once_transformed(tmp_path):
     # as it is, 2.3 m of datum reads as change everywhere
     raw = detect(db, "a", "b_ostend")
     assert sum(f["properties"]["area"] for f in raw) > 10 * sum(f["properties"]["area"] for f in found)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(560000.0, 680000.0), st.floats(5620000.0, 5680000.0))
+def test_a_height_offset_read_back_is_its_opposite(x, y):
+    # Anywhere in central Belgium (ETRS89 / UTM 31N): Ostend heights over EVRF2007 and back.
+    from pyproj import CRS
+
+    from tdb.crs import height_offset
+
+    evrf, ostend = CRS.from_user_input("EPSG:25831+5621"), CRS.from_user_input("EPSG:25831+5710")
+    there, back = height_offset(evrf, ostend, at=(x, y)), height_offset(ostend, evrf, at=(x, y))
+    assert there is not None and back is not None
+    assert there.dz == pytest.approx(-back.dz, abs=1e-6)
+    assert 2.0 < there.dz < 2.6
+
+
+def test_datum_offsets_against_one_reference_give_the_offset_between_two_later_surveys():
+    from queries.coregister import Shift
+    from queries.history import between
+
+    first = Shift(dz=0.05, vertical=True, datum_dz=2.32, datum="Ostend to EVRF2007")
+    second = Shift(dz=0.02, vertical=True, datum_dz=0.0)
+    step = between(first, second)
+    # the first survey's heights stand 2.37 m over the reference, the second's 0.02 m
+    assert step.z_offset == pytest.approx(second.z_offset - first.z_offset)
+    assert step.datum_dz == pytest.approx(-2.32) and "Ostend" in step.datum
