@@ -20,22 +20,17 @@ from __future__ import annotations
 
 import argparse
 import functools
-import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import shapely
 
 import queries.centreline
-import tdb
 from benchmarks.common import choose, save
-from benchmarks.feature_peers import figures, truths
-from benchmarks.spread_cv import CHOSEN_ON, DENSITY, NEVER_CHOSEN_ON
-from ingest.pipeline import IngestOptions, ingest
-from ingest.synth import make_scene, sample
+from benchmarks.feature_peers import figures
+from benchmarks.spread_cv import CHOSEN_ON, DENSITY, NEVER_CHOSEN_ON, case_name, scene_database
 from queries.match import find
 
 ANGLES = (20.0, 30.0, 35.0, 40.0, 45.0, 60.0)  # degrees
@@ -47,22 +42,12 @@ GRIDS: dict[str, tuple[str, dict[str, float | None], str]] = {
 KINDS = ("ditch", "ridge")
 
 
-def _name(kind: str, seed: int) -> str:
-    return f"{kind} {seed}"
-
-
 def evaluate(case: tuple[str, int], *, grid: str = "angle") -> dict[str, dict[str, dict[str, float]]]:
     """Per setting of ``grid`` and filter, recall / precision / F1 on one scene."""
     constant, values, _ = GRIDS[grid]
-    kind, seed = case
-    rugged = kind == "rugged"
-    scene = make_scene(seed=seed, size=400.0 if rugged else 300.0, terrain="rugged" if rugged else "plain")
-    truth = truths(scene)
     shipped = getattr(queries.centreline, constant)
     out: dict[str, dict[str, dict[str, float]]] = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        db = tdb.open(Path(tmp) / "s.tdb", create=True)
-        ingest(sample(scene, density=DENSITY, seed=seed), db, version="v", options=IngestOptions(exclude=()))
+    with scene_database(case) as (truth, db):
         for label, value in values.items():
             setattr(queries.centreline, constant, value)
             out[label] = {
@@ -76,8 +61,8 @@ def evaluate(case: tuple[str, int], *, grid: str = "angle") -> dict[str, dict[st
 def summarise(runs: dict[str, Any], settings: list[str]) -> dict[str, Any]:
     """The angle chosen on all scenes, each scene's held-out choice and score, and the means per
     angle and filter on the scenes chosen on and on the others."""
-    chosen_on = [_name(*c) for c in CHOSEN_ON]
-    never = [_name(*c) for c in NEVER_CHOSEN_ON]
+    chosen_on = [case_name(*c) for c in CHOSEN_ON]
+    never = [case_name(*c) for c in NEVER_CHOSEN_ON]
 
     def both(n: str, s: str) -> float:
         return float(np.mean([runs[n][s][k]["f1"] for k in KINDS]))
@@ -112,7 +97,7 @@ def main() -> None:
     # spawned, not forked: a pool forked from a process whose libraries hold threads can hang
     with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
         scored = pool.map(functools.partial(evaluate, grid=args.grid), cases)
-        runs = {_name(*c): r for c, r in zip(cases, scored, strict=True)}
+        runs = {case_name(*c): r for c, r in zip(cases, scored, strict=True)}
     summary = summarise(runs, list(values))
     print("tuned", summary["tuned"], "held out F1", round(summary["held_out_f1"], 4))
     for s, per in summary["means"].items():

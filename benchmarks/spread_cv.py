@@ -20,7 +20,9 @@ import argparse
 import dataclasses
 import functools
 import tempfile
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
@@ -44,7 +46,7 @@ CHOSEN_ON = [("plain", s) for s in range(1, 11)] + [("rugged", s) for s in range
 NEVER_CHOSEN_ON = [("rugged", s) for s in range(1, 6)]
 
 
-def _name(kind: str, seed: int) -> str:
+def case_name(kind: str, seed: int) -> str:
     return f"{kind} {seed}"
 
 
@@ -52,19 +54,26 @@ def _setting(bound: float | None) -> str:
     return "none" if bound is None else f"{bound:g}"
 
 
+@contextmanager
+def scene_database(case: tuple[str, int]) -> Iterator[tuple[dict[str, Any], tdb.Database]]:
+    """One scene (``(kind, seed)``) ingested as version ``v`` of a temporary database: the
+    truth :func:`benchmarks.feature_peers.truths` scores by, and the database."""
+    kind, seed = case
+    rugged = kind == "rugged"
+    scene = make_scene(seed=seed, size=400.0 if rugged else 300.0, terrain="rugged" if rugged else "plain")
+    with tempfile.TemporaryDirectory() as tmp:
+        db = tdb.open(Path(tmp) / "s.tdb", create=True)
+        ingest(sample(scene, density=DENSITY, seed=seed), db, version="v", options=IngestOptions(exclude=()))
+        yield truths(scene), db
+
+
 def evaluate(
     case: tuple[str, int], *, grid: Grid = GRID, field: str = FIELD
 ) -> dict[str, dict[str, dict[str, float]]]:
     """Per filter and value of its ``field``, recall / precision / F1 on one scene."""
-    kind, seed = case
-    rugged = kind == "rugged"
-    scene = make_scene(seed=seed, size=400.0 if rugged else 300.0, terrain="rugged" if rugged else "plain")
-    truth = truths(scene)
     known = builtin_filters()
     out: dict[str, dict[str, dict[str, float]]] = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        db = tdb.open(Path(tmp) / "s.tdb", create=True)
-        ingest(sample(scene, density=DENSITY, seed=seed), db, version="v", options=IngestOptions(exclude=()))
+    with scene_database(case) as (truth, db):
         for name, bounds in grid.items():
             out[name] = {}
             for bound in bounds:
@@ -79,11 +88,11 @@ def summarise(runs: dict[str, Any], *, grid: Grid = GRID) -> dict[str, Any]:
     """Per filter: the bound chosen on all scenes, each scene's held-out choice and F1, and the
     never-chosen-on scenes scored with the bound chosen on all."""
     doc: dict[str, Any] = {}
-    chosen_on = [_name(*c) for c in CHOSEN_ON]
+    chosen_on = [case_name(*c) for c in CHOSEN_ON]
     for name, bounds in grid.items():
         table = {_setting(b): {n: runs[n][name][_setting(b)]["f1"] for n in chosen_on} for b in bounds}
         tuned, held = choose(table, {n: n for n in chosen_on})
-        never = [_name(*c) for c in NEVER_CHOSEN_ON]
+        never = [case_name(*c) for c in NEVER_CHOSEN_ON]
 
         def mean(setting: str, names: list[str], key: str, name: str = name) -> float:
             return float(np.mean([runs[n][name][setting][key] for n in names]))
@@ -112,7 +121,7 @@ def cross_validate(grid: Grid, field: str, result: str, *, doc: str) -> None:
     scored = functools.partial(evaluate, grid=grid, field=field)
     # spawned, not forked: a pool forked from a process whose libraries hold threads can hang
     with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-        runs = {_name(*c): r for c, r in zip(cases, pool.map(scored, cases), strict=True)}
+        runs = {case_name(*c): r for c, r in zip(cases, pool.map(scored, cases), strict=True)}
     summary = summarise(runs, grid=grid)
     for name, d in summary.items():
         print(name, "tuned", d["tuned"], "held out F1", round(d["held_out_f1"], 4))

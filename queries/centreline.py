@@ -105,10 +105,11 @@ def branches(
     mst = _spanning_tree(pts, link)
     tree = (mst + mst.T).tocsr()
     degree = np.diff(tree.indptr)
-    cut = [int(j) for j in np.flatnonzero(degree >= 3) if _meets(_headings(tree, pts, int(j), reach))]
+    forks = np.flatnonzero(degree >= 3)
+    cut = [int(j) for j in forks[_junctions(*_arms(tree, pts, forks, reach), len(forks))]]
     if BEND is not None:
         turns = np.setdiff1d(np.flatnonzero(degree >= 2), cut)
-        cut += [int(j) for j in turns[_corners(tree, pts, turns, reach)]]
+        cut += [int(j) for j in turns[_corners(*_arms(tree, pts, turns, reach), len(turns), reach)]]
     rest = tree.tolil()
     for j in cut:
         rest[j, :] = 0
@@ -128,65 +129,29 @@ def branches(
     return out or everything
 
 
-def _headings(tree: Any, pts: NDArray[np.float64], j: int, reach: float) -> list[NDArray[np.float64]]:
-    """The headings (unit vectors) of :func:`_arms`."""
-    return [v / np.hypot(*v) for v in _arms(tree, pts, j, reach)]
+ARM_ROWS = (
+    256  # points whose arms are found in one run of Dijkstra: a run holds this many rows of the tree's points
+)
 
 
-def _arms(tree: Any, pts: NDArray[np.float64], j: int, reach: float) -> list[NDArray[np.float64]]:
-    """The arms leaving point ``j`` of a spanning tree (CSR, both directions, edges shorter than
-    ``reach``) of ``pts`` that run at least ``reach`` on from it along the tree, each as the
-    vector to its point ``reach`` along; longest arm first."""
-    dist, pred = dijkstra(tree, indices=j, limit=2 * reach, return_predecessors=True)
-    near = np.flatnonzero(np.isfinite(dist))
-    near = near[near != j]
-    arm = near.copy()  # each point's first step from j, found by walking back towards j
-    while (back := pred[arm] != j).any():
-        arm[back] = pred[arm[back]]
-    ends = []
-    for first in np.unique(arm):
-        members = near[arm == first]
-        far = float(dist[members].max())
-        heading = pts[members[np.argmin(np.abs(dist[members] - reach))]] - pts[j]
-        if far >= reach and heading.any():
-            ends.append((far, heading))
-    return [h for _, h in sorted(ends, key=lambda e: -e[0])]
+def _arms(
+    tree: Any, pts: NDArray[np.float64], js: NDArray[np.intp], reach: float
+) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+    """The arms leaving each of the points ``js`` of a spanning tree (CSR, both directions, edges
+    shorter than ``reach``) of ``pts`` that run at least ``reach`` on from it along the tree: each
+    arm's point (its row in ``js``), how far it runs (up to twice ``reach``) and the vector to its
+    point ``reach`` along; by point, then by the arm's first step."""
+    parts = [_arms_of(tree, pts, js[s : s + ARM_ROWS], reach, s) for s in range(0, len(js), ARM_ROWS)]
+    if not parts:
+        return np.zeros(0, np.intp), np.zeros(0), np.zeros((0, 2))
+    row, far, vector = (np.concatenate(a) for a in zip(*parts))
+    return row, far, vector
 
 
-def _meets(headings: list[NDArray[np.float64]]) -> bool:
-    """Whether arms with these headings are distinct lines meeting: three or more headed more
-    than :data:`ARM_ANGLE` apart. A line two tiles wide spans a ladder whose rungs are
-    junctions, but every arm of a rung heads along the line."""
-    distinct: list[NDArray[np.float64]] = []
-    apart = float(np.cos(np.radians(ARM_ANGLE)))
-    for h in headings:
-        if all(float(h @ other) < apart for other in distinct):
-            distinct.append(h)
-    return len(distinct) >= 3
-
-
-CORNER_ROWS = 256  # points whose arms are found in one pass: a pass holds this many rows of the tree's points
-
-
-def _corners(tree: Any, pts: NDArray[np.float64], js: NDArray[np.intp], reach: float) -> NDArray[np.bool_]:
-    """Which of the points ``js`` of a spanning tree (as :func:`_arms` takes it) are corners: each
-    has two arms (:func:`_arms`), headed less than 180° − :data:`BEND` apart and more than
-    :data:`ARM_ANGLE` apart (as distinct lines), where one line may run on into another of
-    another section. Each arm must run on away from the point, its point ``reach`` along at least
-    half that far off: the rails of a line two tiles wide meet in hairpins of its spanning tree,
-    whose arms double back. The arms of many points are found at once, as :func:`_arms` finds
-    one point's."""
-    out = np.zeros(len(js), bool)
-    if BEND is None:
-        return out
-    for s in range(0, len(js), CORNER_ROWS):
-        out[s : s + CORNER_ROWS] = _corners_of(tree, pts, js[s : s + CORNER_ROWS], reach)
-    return out
-
-
-def _corners_of(tree: Any, pts: NDArray[np.float64], js: NDArray[np.intp], reach: float) -> NDArray[np.bool_]:
-    """:func:`_corners` of up to :data:`CORNER_ROWS` points, in one run of Dijkstra."""
-    assert BEND is not None
+def _arms_of(
+    tree: Any, pts: NDArray[np.float64], js: NDArray[np.intp], reach: float, first_row: int
+) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`_arms` of up to :data:`ARM_ROWS` points (rows from ``first_row`` on), in one run."""
     m, n = len(js), len(pts)
     dist, pred = dijkstra(tree, indices=js, limit=2 * reach, return_predecessors=True)
     near = np.isfinite(dist)
@@ -203,14 +168,46 @@ def _corners_of(tree: Any, pts: NDArray[np.float64], js: NDArray[np.intp], reach
     row = r[order][starts]
     vector = pts[k[order][starts]] - pts[js[row]]
     long = (far >= reach) & vector.any(axis=1)
-    row, vector = row[long], vector[long]
-    two = np.flatnonzero(np.bincount(row, minlength=m)[row] == 2)  # arms of rows with two, in pairs
+    return row[long] + first_row, far[long], vector[long]
+
+
+def _junctions(
+    row: NDArray[np.intp], far: NDArray[np.float64], vector: NDArray[np.float64], m: int
+) -> NDArray[np.bool_]:
+    """Which of ``m`` points whose arms are these (:func:`_arms`) are junctions of distinct lines:
+    three or more arms headed more than :data:`ARM_ANGLE` apart, taken longest first. A line two
+    tiles wide spans a ladder whose rungs are junctions, but every arm of a rung heads along the
+    line."""
+    apart = float(np.cos(np.radians(ARM_ANGLE)))
+    out = np.zeros(m, bool)
+    for j in np.flatnonzero(np.bincount(row, minlength=m) >= 3):
+        mine = np.flatnonzero(row == j)
+        distinct: list[NDArray[np.float64]] = []
+        for v in vector[mine[np.argsort(-far[mine], kind="stable")]]:
+            h = v / np.hypot(*v)
+            if all(float(h @ other) < apart for other in distinct):
+                distinct.append(h)
+        out[j] = len(distinct) >= 3
+    return out
+
+
+def _corners(
+    row: NDArray[np.intp], far: NDArray[np.float64], vector: NDArray[np.float64], m: int, reach: float
+) -> NDArray[np.bool_]:
+    """Which of ``m`` points whose arms are these (:func:`_arms`) are corners: each has two arms,
+    headed less than 180° − :data:`BEND` apart and more than :data:`ARM_ANGLE` apart (as distinct
+    lines), where one line may run on into another of another section. Each arm must run on away
+    from the point, its point ``reach`` along at least half that far off: the rails of a line two
+    tiles wide meet in hairpins of its spanning tree, whose arms double back."""
+    out = np.zeros(m, bool)
+    if BEND is None:
+        return out
+    two = np.flatnonzero(np.bincount(row, minlength=m)[row] == 2)  # arms of points with two, in pairs
     a, b, of = vector[two[0::2]], vector[two[1::2]], row[two[0::2]]
     la, lb = np.hypot(*a.T), np.hypot(*b.T)
     cos = np.einsum("ij,ij->i", a, b) / (la * lb)
     corner = (np.minimum(la, lb) >= reach / 2) & (cos > np.cos(np.radians(180.0 - BEND)))
     corner &= cos < np.cos(np.radians(ARM_ANGLE))
-    out = np.zeros(m, bool)
     out[of[corner]] = True
     return out
 

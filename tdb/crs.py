@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from dataclasses import dataclass
@@ -121,7 +122,7 @@ def height_reference_note(
     va, vb = vertical_part(a), vertical_part(b)
     if va is None and vb is None:
         return None
-    if va is not None and vb is not None and (va.equals(vb) or va.datum == vb.datum):
+    if va is not None and vb is not None and va.datum == vb.datum:
         return None
 
     def heights(name: str, v: pyproj.CRS | None) -> str:
@@ -156,6 +157,7 @@ class HeightOffset:
         )
 
 
+@functools.lru_cache(maxsize=16)  # a diff's note and its co-registration ask for the same (PROJ takes 0.1 s)
 def height_offset(
     earlier: pyproj.CRS | None, later: pyproj.CRS | None, *, at: tuple[float, float]
 ) -> HeightOffset | None:

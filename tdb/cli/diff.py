@@ -82,10 +82,10 @@ def command(
     check_files(png=png, tif=dod)
     # the shift found is kept for later queries where the database can be written
     with tdb.open(db_path, readonly=not tdb.database.writable(db_path)) as db:
-        plan = check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=site(db, before))
+        at = site(db, before)
+        plan = check_same_horizontal(db.crs(before), db.crs(after), names=(before, after), at=at)
         if plan:
             click.echo(f"note: {plan}; co-registration finds what is left", err=True)
-        at = site(db, before)
         datums = None if at is None else height_offset(db.crs(before), db.crs(after), at=at)
         note = height_reference_note(db.crs(before), db.crs(after), names=(before, after), offset=datums)
         if note:
