@@ -13,7 +13,7 @@ from tdb.evidence import LEVEL, OVER, OVER_CAP, SUPPORT_SPACINGS, TileEvidence
 from tdb.kdtree import plan_tree
 from tdb.median import median_filter
 from tdb.raster import Raster
-from tdb.sort import by_group, highest_per_group
+from tdb.sort import by_group, highest_per_group, scatter_max, scatter_min
 
 NEIGHBOURS = 16  # ground returns per neighbourhood: ten more than the quadratic's six terms
 TOLERANCE = 0.1  # m per m: what a neighbour carried along the surface may fall short by
@@ -121,8 +121,8 @@ def tile_over(
     cell = grid.cells(o[:, 0], o[:, 1])
     keep = (cell >= 0) & (h >= OVER) & (h <= OVER_CAP)  # NaN (off the surface) fails both
     lo, hi = np.full(grid.size, np.inf), np.full(grid.size, -np.inf)
-    np.minimum.at(lo, cell[keep], h[keep])
-    np.maximum.at(hi, cell[keep], h[keep])
+    scatter_min(lo, cell[keep], h[keep])
+    scatter_max(hi, cell[keep], h[keep])
     at = grid.cells_of_tiles(xg, yg)
     held = np.isfinite(lo[at])
     low[held], high[held] = lo[at][held], hi[at][held]

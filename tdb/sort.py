@@ -1,4 +1,5 @@
-"""Points by group (a cell, a tile): their order by group and, within one, by a value; each group's highest."""
+"""Points by group (a cell, a tile): their order by group and, within one, by a value; each group's highest
+or lowest value."""
 
 from __future__ import annotations
 
@@ -26,14 +27,54 @@ def by_group(group: NDArray[np.integer[Any]], key: NDArray[np.floating[Any]]) ->
     return np.argsort(group.astype(np.int64) * n + rank)
 
 
+_PASSES = 6  # scatter passes before the rest goes to the ufunc (adversarial orders)
+
+
+def scatter_max(out: NDArray[Any], index: NDArray[np.integer[Any]], values: NDArray[Any]) -> None:
+    """``np.maximum.at(out.reshape(-1), index, values)``, in place, a few times faster.
+
+    Each pass writes the values still above what their cell holds, so a cell ends at its largest
+    (whichever value a repeated index keeps, the cell only rises); on typical orders a handful
+    of passes over fewer and fewer values is done, and what an adversarial order leaves after
+    :data:`_PASSES` goes to the ufunc. Values with NaN go to the ufunc at once, which keeps them.
+    """
+    _scatter(out, index, values, np.greater, np.maximum)
+
+
+def scatter_min(out: NDArray[Any], index: NDArray[np.integer[Any]], values: NDArray[Any]) -> None:
+    """``np.minimum.at(out.reshape(-1), index, values)``, in place: see :func:`scatter_max`."""
+    _scatter(out, index, values, np.less, np.minimum)
+
+
+def _scatter(out: NDArray[Any], index: NDArray[Any], values: NDArray[Any], beats: Any, ufunc: Any) -> None:
+    flat = out.reshape(-1)
+    if not np.shares_memory(flat, out):
+        raise ValueError("out must be contiguous")
+    index, values = np.asarray(index), np.asarray(values)
+    if values.dtype.kind == "f" and np.isnan(values).any():
+        ufunc.at(flat, index, values)
+        return
+    keep = beats(values, flat[index])
+    index, values = index[keep], values[keep]
+    for k in range(_PASSES):
+        if len(index) == 0:
+            return
+        # alternate directions, so that an ascending or a descending run settles in one pass
+        step = 1 if k % 2 == 0 else -1
+        flat[index[::step]] = values[::step]
+        keep = beats(values, flat[index])
+        index, values = index[keep], values[keep]
+    ufunc.at(flat, index, values)
+
+
 def highest_per_group(group: NDArray[np.integer[Any]], z: NDArray[np.floating[Any]]) -> NDArray[np.intp]:
     """The index of each group's highest point (of equal ones the first), groups (integers ≥ 0)
     ascending: two passes over the points, where sorting them by group and height costs several
     times more."""
     size = int(group.max()) + 1 if len(group) else 0
     top = np.full(size, -np.inf)
-    np.maximum.at(top, group, z)
+    scatter_max(top, group, z)
     at_top = np.flatnonzero(z == top[group])
     first = np.full(size, len(group), np.intp)
-    np.minimum.at(first, group[at_top], at_top)
+    scatter_min(first, group[at_top], at_top)
     return first[first < len(group)]

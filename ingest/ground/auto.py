@@ -50,6 +50,7 @@ from tdb.bbox import column_range
 from tdb.errors import InputError
 from tdb.fill import NearestFill, fill_lines, fill_nearest
 from tdb.options import GroundStage
+from tdb.sort import scatter_max
 
 # each point's return number and its pulse's number of returns, where known
 Returns = tuple[NDArray[np.integer[Any]], NDArray[np.integer[Any]]] | None
@@ -302,7 +303,7 @@ def _walls(
     band = np.zeros(grid.shape, bool)
     band[row[low], col[low]] = True
     top = np.zeros(grid.shape)
-    np.maximum.at(top, (row[low], col[low]), h[low])
+    scatter_max(top, row[low] * grid.shape[1] + col[low], h[low])
     walls = narrow_walls(
         band,
         top,

@@ -27,6 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from tdb.sort import scatter_max
+
 
 @dataclass(frozen=True)
 class EarthworkShape:
@@ -109,7 +111,7 @@ def _group_max(values: NDArray[np.float64], labels: NDArray[np.integer], n: int)
     Only the labelled cells are visited: ``ndimage.maximum`` sorts the whole raster."""
     inside = labels > 0
     out = np.full(n + 1, -np.inf)
-    np.maximum.at(out, labels[inside], values[inside])
+    scatter_max(out, labels[inside], values[inside])
     return out
 
 

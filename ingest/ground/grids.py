@@ -12,7 +12,7 @@ from scipy import ndimage
 from tdb.bbox import column_range
 from tdb.errors import InputError
 from tdb.raster import MAX_CELLS
-from tdb.sort import by_group
+from tdb.sort import by_group, scatter_min
 
 
 @dataclass(frozen=True)
@@ -159,7 +159,7 @@ def lowest_per_cell(grid: Grid, xyz: NDArray[np.float64]) -> NDArray[np.float64]
     points themselves)."""
     row, col = grid.index(xyz[:, :2])
     low = np.full(grid.shape, np.inf)
-    np.minimum.at(low, (row, col), xyz[:, 2])
+    scatter_min(low, row * grid.shape[1] + col, xyz[:, 2])
     low[np.isinf(low)] = np.nan
     return low
 

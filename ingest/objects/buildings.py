@@ -54,8 +54,13 @@ def find_buildings(
     roof = (cover.classes == BUILDING) & (region > 0)
     # Only the returns near a roof can be the nearest to a footprint cell.
     near = ndimage.binary_dilation(regions > 0, structure=np.ones((3, 3)), iterations=3).ravel()[cell_of]
-    tree = plan_tree(xyz[near, :2])
-    label = np.where(roof, region, 0)[near]
+    returns = _Returns(
+        plan_tree(xyz[near, :2]),
+        np.where(roof, region, 0)[near],
+        regions,
+        np.bincount(cell_of[near], minlength=regions.size).reshape(regions.shape),
+        np.bincount(cell_of[roof], minlength=regions.size).reshape(regions.shape),
+    )
     # each region's roof returns, grouped once rather than found by a pass over all returns per region
     roofs = np.flatnonzero(roof)
     roofs = roofs[np.argsort(region[roofs], kind="stable")]
@@ -65,7 +70,7 @@ def find_buildings(
         mine = roofs[starts[k - 1] : starts[k]]
         if sl is None or len(mine) == 0:
             continue
-        shape = _footprint(tree, label, k, grid, regions[sl] == k, sl, p)
+        shape = _footprint(returns, k, grid, sl, p)
         if shape is None:
             continue
         height = float(np.quantile(cover.height[mine], ROOF_TOP))
@@ -74,28 +79,66 @@ def find_buildings(
     return sorted(out, key=lambda b: -b.area)
 
 
-def _footprint(
-    tree: cKDTree,
-    label: NDArray[np.intp],
-    k: int,
-    grid: Grid,
-    region: NDArray[np.bool_],
-    sl: tuple[slice, slice],
-    p: FootprintParams,
-) -> Any:
-    """The footprint of region ``k`` (``region``: its cells in the box ``sl`` of the texture grid)."""
+@dataclass(frozen=True)
+class _Returns:
+    """The returns near the roof regions: their k-d tree and each one's region (0: no roof
+    return); the regions; and per texture cell, its count of returns and of roof returns."""
+
+    tree: cKDTree
+    label: NDArray[np.intp]
+    regions: NDArray[np.int32]
+    count: NDArray[np.intp]
+    roof: NDArray[np.intp]
+
+    def settled(self, k: int, rows: slice, cols: slice) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+        """In the box ``rows`` × ``cols`` of the texture grid (it may reach past the grid), the
+        cells whose fine cells' nearest return is known without a search, and whether it is a
+        roof return of region ``k`` there. Such a cell holds a return, so its fine cells' nearest
+        lies within its diagonal, and any return outside the 5 × 5 cells around it lies farther:
+        where those 25 cells' returns are all region ``k``'s roof returns, or none is, every fine
+        cell of it has that answer, whichever return is nearest."""
+        box = (slice(rows.start - 2, rows.stop + 2), slice(cols.start - 2, cols.stop + 2))
+        count = _window(self.count, *box)
+        own = np.where(_window(self.regions, *box) == k, _window(self.roof, *box), 0)
+        total, theirs = _sum_5x5(count), _sum_5x5(own)
+        held = count[2:-2, 2:-2] > 0
+        return held & ((theirs == total) | (theirs == 0)), theirs > 0
+
+
+def _window(a: NDArray[np.integer[Any]], rows: slice, cols: slice) -> NDArray[np.intp]:
+    """``a[rows, cols]``, zero where the box reaches past ``a``."""
+    out = np.zeros((rows.stop - rows.start, cols.stop - cols.start), np.intp)
+    r0, c0 = max(rows.start, 0), max(cols.start, 0)
+    r1, c1 = min(rows.stop, a.shape[0]), min(cols.stop, a.shape[1])
+    if r1 > r0 and c1 > c0:
+        out[r0 - rows.start : r1 - rows.start, c0 - cols.start : c1 - cols.start] = a[r0:r1, c0:c1]
+    return out
+
+
+def _sum_5x5(a: NDArray[np.intp]) -> NDArray[np.intp]:
+    """Sums over the 5 × 5 cells around each cell of ``a`` but its two-cell border."""
+    s = np.zeros((a.shape[0] + 1, a.shape[1] + 1), np.intp)
+    s[1:, 1:] = a.cumsum(0).cumsum(1)
+    return s[5:, 5:] - s[:-5, 5:] - s[5:, :-5] + s[:-5, :-5]
+
+
+def _footprint(returns: _Returns, k: int, grid: Grid, sl: tuple[slice, slice], p: FootprintParams) -> Any:
+    """The footprint of region ``k`` (``sl``: its box on the texture grid)."""
     rows, cols = sl
     fine = grid.cell / p.refine
     x0 = grid.x0 + (cols.start - REACH) * grid.cell
     y0 = grid.y0 + (rows.start - REACH) * grid.cell
-    reach = ndimage.binary_dilation(np.pad(region, REACH), np.ones((3, 3), bool), iterations=REACH)
-    near = np.kron(reach, np.ones((p.refine, p.refine), bool))
-    fgrid = Grid(x0, y0, fine, near.shape)
+    region = np.pad(returns.regions[sl] == k, REACH)
+    reach = ndimage.binary_dilation(region, np.ones((3, 3), bool), iterations=REACH)
+    box = (slice(rows.start - REACH, rows.stop + REACH), slice(cols.start - REACH, cols.stop + REACH))
+    settled, mine = returns.settled(k, *box)
+    ones = np.ones((p.refine, p.refine), bool)
+    mask = np.kron(reach & settled & mine, ones)
+    fgrid = Grid(x0, y0, fine, mask.shape)
     xs, ys = fgrid.centres()
-    r, c = np.nonzero(near)
-    _, nearest = tree.query(np.column_stack([xs[c], ys[r]]))
-    mask = np.zeros(near.shape, bool)
-    mask[r, c] = label[nearest] == k
+    r, c = np.nonzero(np.kron(reach & ~settled, ones))
+    _, nearest = returns.tree.query(np.column_stack([xs[c], ys[r]]))
+    mask[r, c] = returns.label[nearest] == k
     lab, m = ndimage.label(mask, structure=np.ones((3, 3)))
     if m == 0:
         return None

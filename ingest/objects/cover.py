@@ -201,8 +201,16 @@ def _cell_classes(
     out = np.where(tall, VEGETATION_CELL, 0).astype(np.uint8)
     if tall.sum() < MIN_CELLS_TO_FIT:
         return out
-    z = np.asarray(fill_nearest(np.where(np.isfinite(top.height), np.maximum(top.height, 0.0), np.nan)), float)
-    plane = np.asarray(fill_nearest(np.where(tall, top.plane_departure(xy, tall), np.nan)), float)
+    # the texture and the eaves read z two cells round a tall cell, the roof test the plane one
+    near = ndimage.binary_dilation(tall, np.ones((3, 3), bool))
+    z = np.asarray(
+        fill_nearest(
+            np.where(np.isfinite(top.height), np.maximum(top.height, 0.0), np.nan),
+            where=ndimage.binary_dilation(near, np.ones((3, 3), bool)),
+        ),
+        float,
+    )
+    plane = np.asarray(fill_nearest(np.where(tall, top.plane_departure(xy, tall), np.nan), where=near), float)
     texture = median_texture(z, top.grid.cell)[tall]
     features = np.log(texture + _EPS)
     smooth = fit_two(features).classify(features) == 0

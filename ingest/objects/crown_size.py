@@ -18,6 +18,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.sort import scatter_max
+
 MIN_EDGE_CELLS = 6  # fewer free edge cells fit no circle
 MIN_ARC = np.pi  # rad: the free edge must run at least half way round the fitted centre
 # The fitted radius against the area's: outside these bounds the edge is no circle's arc
@@ -31,15 +33,17 @@ def under_base(labels: NDArray[np.intp], canopy: NDArray[np.float64], share: flo
     than ``share`` × its highest cell of ``canopy`` (heights over the ground) set to
     :data:`UNDER_BASE`; None: as they are."""
     out = np.array(labels, np.intp, copy=True)
-    on = out >= 0
-    if share is None or not on.any():
+    on = np.flatnonzero(out >= 0)  # the work is on the crowns' cells only
+    if share is None or len(on) == 0:
         return out
-    height = np.where(on & np.isfinite(canopy), canopy, -np.inf)
-    apex = np.full(int(out.max()) + 1, -np.inf)
-    np.maximum.at(apex, out[on], height[on])
-    top = apex[np.maximum(out, 0)]
+    seg = out.ravel()[on]
+    height = canopy.ravel()[on]
+    height = np.where(np.isfinite(height), height, -np.inf)
+    apex = np.full(int(seg.max()) + 1, -np.inf)
+    scatter_max(apex, seg, height)
+    top = apex[seg]
     # a segment keeps its highest cell whatever the heights' sign: every segment keeps a crown
-    out[on & (height < share * top) & (height < top)] = UNDER_BASE
+    out.ravel()[on[(height < share * top) & (height < top)]] = UNDER_BASE
     return out
 
 

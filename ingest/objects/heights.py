@@ -9,6 +9,7 @@ from numpy.typing import NDArray
 
 from ingest.ground.grids import Grid
 from tdb.raster import Raster
+from tdb.sort import scatter_max
 
 
 def above_ground(xyz: NDArray[np.float64], dtm: Raster) -> NDArray[np.float64]:
@@ -45,7 +46,7 @@ class TopRaster:
         # Two passes over the points and no sort: the highest per cell, then which point it is
         # (of equal heights, the last in the input).
         top = np.full(size, -np.inf)
-        np.maximum.at(top, flat, h[known])
+        scatter_max(top, flat, h[known])
         index = np.full(size, -1, np.intp)
         at_top = h[known] == top[flat]
         index[flat[at_top]] = known[at_top]

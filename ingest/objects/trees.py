@@ -30,7 +30,7 @@ from ingest.objects.crown_size import crown_diameters, under_base
 from ingest.objects.crowns import choose_scales
 from ingest.objects.heights import TopRaster, flat_cells
 from tdb.cloud import HIGH_VEGETATION, MEDIUM_VEGETATION, PointCloud
-from tdb.fill import fill_nearest
+from tdb.fill import fill_nearest, nearest_adjacent
 from tdb.objects import Tree
 from tdb.outlines import outlines
 
@@ -86,18 +86,23 @@ def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = N
         return []
     grid = Grid.covering(cloud.xyz[tall, :2], cell_size(cover.spacing, spacings=p.cell_spacings))
     near = _inside(grid, cloud.xyz[:, :2]) & np.isfinite(cover.height)
-    xyz = cloud.xyz[near]
+    filled = np.bincount(flat_cells(grid, cloud.xyz[:, :2])[near], minlength=grid.shape[0] * grid.shape[1]) > 0
+    # A cell's highest return is a crown's only where some return there stands as high as the
+    # crowns' returns do: the rasters are made of those (most returns are lower), the rest
+    # only fill their cells.
+    high = np.flatnonzero(near & (cover.height >= cover.height[tall].min()))
+    xyz = cloud.xyz[high]
     cells = flat_cells(grid, xyz[:, :2])
-    top = TopRaster.of(grid, xyz[:, :2], cover.height[near], cells=cells)
-    mask = _crown_cells(top, tall[near])
+    top = TopRaster.of(grid, xyz[:, :2], cover.height[high], cells=cells)
+    mask = _crown_cells(top, tall[high], filled.reshape(grid.shape))
     canopy = crown_surface(np.where(mask, top.height, np.nan), mask, grid.cell, params=p)
     scales = [climb(smoothed(canopy, mask, s / grid.cell), mask) for s in sorted(p.scales, reverse=True)]
     min_cells = max(1, int(np.ceil(p.min_crown_area / grid.cell**2)))
     labels = choose_scales(scales, canopy, grid.cell, noise=p.noise, min_cells=min_cells)
     if p.crossing_area is not None:
         labels = crossed_boundaries(labels, canopy, grid.cell, min_area=p.crossing_area)
-    crown = np.where(tall[near], labels.ravel()[cells], -1)
-    shortfall = crown_shortfalls(crown, cover.height[near], xyz[:, :2], n=int(labels.max()) + 1)
+    crown = np.where(tall[high], labels.ravel()[cells], -1)
+    shortfall = crown_shortfalls(crown, cover.height[high], xyz[:, :2], n=int(labels.max()) + 1)
     return _measure(labels, under_base(labels, canopy, p.crown_base), top, xyz, min_cells, shortfall)
 
 
@@ -107,17 +112,17 @@ def _inside(grid: Grid, xy: NDArray[np.float64]) -> NDArray[np.bool_]:
     return (xy[:, 0] >= grid.x0) & (xy[:, 0] < x1) & (xy[:, 1] >= grid.y0) & (xy[:, 1] < y1)
 
 
-def _crown_cells(top: TopRaster, tall: NDArray[np.bool_], *, reach: float = 1.5) -> NDArray[np.bool_]:
-    """Cells whose highest return is a tree's; an empty cell within ``reach`` cells of a filled
-    one takes the nearest filled cell's answer, so a crown's edge falls between its last
-    return and the first beside it instead of shrinking by the empty cells along it. Farther
-    from any return (outside the survey, in its gaps) a cell is no crown."""
-    filled = top.index >= 0
-    answer = np.where(filled, tall[np.maximum(top.index, 0)], False)
+def _crown_cells(top: TopRaster, tall: NDArray[np.bool_], filled: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Cells whose highest return is a tree's; an empty cell beside a filled one (within 1.5
+    cells: one of its 8 neighbours) takes the nearest filled cell's answer, so a crown's edge
+    falls between its last return and the first beside it instead of shrinking by the empty
+    cells along it. Farther from any return (outside the survey, in its gaps) a cell is no
+    crown. ``filled``: the cells holding a return (of any height)."""
+    answer = np.where(top.index >= 0, tall[np.maximum(top.index, 0)], False)
     if filled.all() or not filled.any():
         return answer
-    distance, (ri, ci) = ndimage.distance_transform_edt(~filled, return_indices=True)
-    return answer[ri, ci] & (distance <= reach)
+    near = nearest_adjacent(filled)  # within 1.5 cells: the cell itself or one of its 8 neighbours
+    return (near >= 0) & answer.ravel()[np.maximum(near, 0)].reshape(filled.shape)
 
 
 def crown_surface(
