@@ -60,17 +60,5 @@ def dense_model(
             f"a {resolution} m grid over this extent needs {rows * cols:,} cells; use a coarser resolution"
         )
     raster = Raster(np.full((rows, cols), np.nan), float(x0), float(y0 + rows * resolution), resolution, crs)
-    faces = faces[~_long_facets(faces, xyz, max_edge)]  # no guess across a big gap
-    return replace(raster, data=rasterise(xyz[:, :2], xyz[:, 2], faces, raster.posts()))
-
-
-def _long_facets(faces: NDArray[np.intp], xyz: NDArray[np.float64], max_edge: float | None) -> NDArray[np.bool_]:
-    if max_edge is None:
-        return np.zeros(len(faces), bool)
-    x, y = xyz[:, 0], xyz[:, 1]
-    corners = np.ascontiguousarray(faces.T)
-    cx, cy = x[corners], y[corners]
-    longest = np.zeros(len(faces))
-    for a, b in ((0, 1), (1, 2), (2, 0)):
-        np.maximum(longest, (cx[b] - cx[a]) ** 2 + (cy[b] - cy[a]) ** 2, out=longest)
-    return longest > max_edge**2
+    # no guess across a big gap
+    return replace(raster, data=rasterise(xyz[:, :2], xyz[:, 2], faces, raster.posts(), max_edge=max_edge))

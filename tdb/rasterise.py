@@ -39,17 +39,23 @@ def rasterise(
     z: NDArray[np.float64],
     faces: NDArray[np.intp],
     grid: PostGrid,
+    *,
+    max_edge: float | None = None,
 ) -> NDArray[np.float64]:
     """Heights (rows, cols) of the surface of triangles ``faces`` (T, 3) over vertices ``xy``
-    (V, 2) with heights ``z`` (V,), at the posts of ``grid``; NaN where no triangle covers a post."""
+    (V, 2) with heights ``z`` (V,), at the posts of ``grid``; NaN where no triangle covers a post.
+
+    ``max_edge``: a triangle with an edge longer than this (in ``xy``'s units) covers no post
+    (a gap in the data, not a surface); None: every triangle covers its posts."""
     out = np.full((grid.rows, grid.cols), np.nan)
     faces = np.asarray(faces, np.intp)
     # grid coordinates: posts at whole numbers, v growing southward
     u = (np.asarray(xy[:, 0], float) - grid.x0) / grid.cell
     v = (grid.y0 - np.asarray(xy[:, 1], float)) / grid.cell
     height = np.asarray(z, float)
+    longest = np.inf if max_edge is None else (max_edge / grid.cell) ** 2
     for s in range(0, len(faces), FACES):
-        _triangles(faces[s : s + FACES], u, v, height, grid, out)
+        _triangles(faces[s : s + FACES], u, v, height, grid, out, longest)
     return out
 
 
@@ -60,13 +66,17 @@ def _triangles(
     z: NDArray[np.float64],
     grid: PostGrid,
     out: NDArray[np.float64],
+    longest: float,
 ) -> None:
     """Write the heights of one batch of triangles into ``out``, in batches of runs of about
-    :data:`CHUNK` posts."""
+    :data:`CHUNK` posts; a triangle with an edge's square (in posts) over ``longest`` writes none."""
     # corners (3, T), one row per corner, so that each corner's values lie together in memory
     corners = np.ascontiguousarray(faces.T)
     tu, tv, tz = u[corners], v[corners], z[corners]
     plane, ok = _planes(tu, tv, tz)
+    if np.isfinite(longest):
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            ok &= (tu[b] - tu[a]) ** 2 + (tv[b] - tv[a]) ** 2 <= longest
     first = np.maximum(np.ceil(_least(tv) - EDGE), 0).astype(np.int64)
     last = np.minimum(np.floor(_most(tv) + EDGE), grid.rows - 1).astype(np.int64)
     nrows = np.where(ok, np.maximum(last - first + 1, 0), 0)

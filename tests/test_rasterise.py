@@ -92,3 +92,20 @@ def test_the_incremental_mesh_keeps_the_lowest_of_one_position_and_refuses_a_lin
         delaunay_mesh(np.array([[0.0, 0.0, 1.0], [1.0, 1.0, 1.0], [2.0, 2.0, 1.0]]))
     with pytest.raises(DegenerateInputError):
         delaunay_mesh(np.zeros((2, 3)))
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(3, 200), st.floats(2.0, 30.0), st.integers(0, 10_000))
+def test_triangles_with_an_edge_over_the_longest_cover_no_post(n, longest, seed):
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 40, (n, 2)) + np.array([500_000.0, 5_000_000.0])
+    z = rng.normal(100, 5, n)
+    grid = PostGrid(500_000.0, 5_000_040.0, 0.7, 58, 58)
+    faces = triangulate(xy).simplices
+    corners = xy[faces]  # (T, 3, 2)
+    edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
+    near_the_bound = np.abs(edges - longest) < 1e-6  # round-off may put these either side
+    if near_the_bound.any():
+        return
+    expected = rasterise(xy, z, faces[edges <= longest], grid)
+    np.testing.assert_array_equal(rasterise(xy, z, faces, grid, max_edge=longest), expected)
