@@ -31,10 +31,9 @@ def fill_nearest(
     """
     if where is not None:
         holes = np.isnan(raster)
-        if holes.any() and not holes.all():
+        if holes.any() and not holes.all() and _beside_filled(~holes)[where].all():
             near = nearest_adjacent(~holes)
-            if (near[where] >= 0).all():
-                return np.where(near >= 0, raster.ravel()[np.maximum(near, 0)], np.nan)
+            return np.where(near >= 0, raster.ravel()[np.maximum(near, 0)], np.nan)
     return NearestFill()(raster)
 
 
@@ -62,11 +61,18 @@ def nearest_index(holes: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[n
     """The row and column of the nearest filled cell to each cell (itself where filled), as
     :func:`scipy.ndimage.distance_transform_edt`'s indices: from the 8 neighbours where every
     hole has a filled one, else by the transform."""
-    near = nearest_adjacent(~holes)
-    if (near >= 0).all():
-        return np.divmod(near, holes.shape[1])
+    if _beside_filled(~holes).all():
+        return np.divmod(nearest_adjacent(~holes), holes.shape[1])
     ri, ci = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
     return ri, ci
+
+
+def _beside_filled(filled: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """The cells that are filled or have a filled 8-neighbour (a 3 × 3 dilation, by rows then
+    columns): what tells in a few passes whether :func:`nearest_adjacent` is all a fill needs."""
+    p = np.pad(filled, 1)
+    across = p[:, :-2] | p[:, 1:-1] | p[:, 2:]
+    return across[:-2] | across[1:-1] | across[2:]
 
 
 class NearestFill:
