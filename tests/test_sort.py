@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tdb.sort import by_group, highest_per_group, scatter_max, scatter_min
+from tdb.sort import by_group, highest_per_group, order_within, scatter_max, scatter_min
 
 
 @settings(max_examples=80, deadline=None)
@@ -78,3 +78,20 @@ def test_a_scatter_into_a_raster_takes_flat_indices():
     np.testing.assert_array_equal(raster, [[2.0, 0, 0], [0, 3.0, 0]])
     with pytest.raises(ValueError, match="contiguous"):
         scatter_min(np.zeros((3, 4))[:, :2], np.array([0]), np.array([-1.0]))
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(0, 300), seed=st.integers(0, 2**16), ties=st.booleans())
+def test_one_order_by_height_serves_every_subset_and_grid(n, seed, ties):
+    rng = np.random.default_rng(seed)
+    z = rng.integers(0, 5, n).astype(float) if ties else rng.normal(size=n)
+    subset = np.flatnonzero(rng.random(n) < 0.6)
+    group = rng.integers(0, 7, len(subset))
+    within = order_within(np.argsort(z, kind="stable"), subset, n)
+    np.testing.assert_array_equal(within, np.argsort(z[subset], kind="stable"))
+    np.testing.assert_array_equal(by_group(group, z[subset], key_order=within), np.lexsort((z[subset], group)))
+
+
+def test_an_order_within_a_subset_out_of_order_is_refused():
+    with pytest.raises(ValueError, match="ascending"):
+        order_within(np.arange(4), np.array([2, 1]), 4)

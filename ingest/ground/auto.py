@@ -50,7 +50,7 @@ from tdb.bbox import column_range
 from tdb.errors import InputError
 from tdb.fill import NearestFill, fill_lines, fill_nearest
 from tdb.options import GroundStage
-from tdb.sort import scatter_max
+from tdb.sort import order_within, scatter_max
 
 # each point's return number and its pulse's number of returns, where known
 Returns = tuple[NDArray[np.integer[Any]], NDArray[np.integer[Any]]] | None
@@ -140,14 +140,17 @@ def auto_ground(
     ground = np.zeros(len(xyz), bool)
     # One density for the outlier test and the threshold: a block passes the whole survey's.
     density = density or point_density(xyz[:, :2])
-    outlier = low_outliers(xyz, density=density, envelope_points=p.envelope_points)
+    # one order by height serves the cells of every grid below
+    by_height = np.argsort(xyz[:, 2], kind="stable")
+    outlier = low_outliers(xyz, density=density, envelope_points=p.envelope_points, by_height=by_height)
     keep = np.flatnonzero(~outlier)
+    by_height = order_within(by_height, keep, len(xyz))
     # Between sparse points the interpolated surface misses more of the terrain's relief.
     threshold = p.threshold + p.threshold_spacings / np.sqrt(density)
     pts = xyz[keep]
     xy = pts[:, :2]
     grid = Grid.covering(xy if extent is None else np.array([extent[:2], extent[2:], *column_range(xy)]), p.cell)
-    cells = CellSort.of(grid, pts)
+    cells = CellSort.of(grid, pts, by_height=by_height)
     idx = cells.lowest()
     zmin = heights_of(idx, pts)
     objects = progressive_opening(
@@ -196,7 +199,7 @@ def auto_ground(
             found = (
                 _earthworks(grid, surface, zmin, idx, current, objects & ~pits, p)
                 if stage is GroundStage.EARTHWORKS
-                else _hills(grid, pts, is_ground, group_cell, p)
+                else _hills(grid, pts, is_ground, group_cell, p, by_height)
             )
             current = np.where(found, idx, current)
         passes = p.stage_passes
@@ -323,11 +326,16 @@ def _group_cell(pts: NDArray[np.float64], p: AutoParams) -> float:
 
 
 def _hills(
-    grid: Grid, pts: NDArray[np.float64], is_ground: NDArray[np.bool_], cell: float, p: AutoParams
+    grid: Grid,
+    pts: NDArray[np.float64],
+    is_ground: NDArray[np.bool_],
+    cell: float,
+    p: AutoParams,
+    by_height: NDArray[np.intp],
 ) -> NDArray[np.bool_]:
     """Cells of ``grid`` whose lowest point is the lowest of a hill's cell of ``cell`` m
-    (:func:`ingest.ground.hills.smooth_hills`)."""
-    found = np.flatnonzero(smooth_hills(pts, is_ground, cell=cell, shape=p.hills))
+    (:func:`ingest.ground.hills.smooth_hills`); ``by_height``: the points' stable order by height."""
+    found = np.flatnonzero(smooth_hills(pts, is_ground, cell=cell, shape=p.hills, by_height=by_height))
     out = np.zeros(grid.shape, bool)
     out[grid.index(pts[found, :2])] = True
     return out

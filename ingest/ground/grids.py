@@ -98,10 +98,12 @@ class CellSort:
     cell: NDArray[np.intp]  # flat cell of each point in that order
 
     @classmethod
-    def of(cls, grid: Grid, xyz: NDArray[np.float64]) -> CellSort:
+    def of(cls, grid: Grid, xyz: NDArray[np.float64], *, by_height: NDArray[np.intp] | None = None) -> CellSort:
+        """``by_height``: the points' stable order by height, where the caller has it
+        (:func:`tdb.sort.by_group`)."""
         row, col = grid.index(xyz[:, :2])
         flat = row * grid.shape[1] + col
-        order = by_group(flat, xyz[:, 2])
+        order = by_group(flat, xyz[:, 2], key_order=by_height)
         return cls(grid, order, flat[order])
 
     def lowest(self, mask: NDArray[np.bool_] | None = None) -> NDArray[np.intp]:

@@ -58,6 +58,7 @@ def smooth_hills(
     *,
     cell: float,
     shape: HillShape = HillShape(),
+    by_height: NDArray[np.intp] | None = None,
 ) -> NDArray[np.bool_]:
     """Points that are the lowest of their cell in a group of object cells that is a hill.
 
@@ -68,9 +69,11 @@ def smooth_hills(
     cell : cell size (m) of the groups' grid.
     shape : what makes a group a hill (:class:`HillShape`; its ``spacings`` is the caller's, to
         size ``cell``).
+    by_height : the points' stable order by height, where the caller has it
+        (:func:`tdb.sort.by_group`).
     """
     grid = Grid.covering(xyz[:, :2], cell)
-    cells = CellSort.of(grid, xyz)
+    cells = CellSort.of(grid, xyz, by_height=by_height)
     lowest, lowest_ground = cells.lowest(), cells.lowest(ground)
     has_ground = lowest_ground >= 0
     objects = (lowest >= 0) & ~has_ground

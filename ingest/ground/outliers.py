@@ -36,18 +36,29 @@ def point_density(xy: NDArray[np.float64]) -> float:
     return len(xy) / occupied_area(xy, block=DENSITY_BLOCK)
 
 
+@dataclass(frozen=True)
+class OutlierTest:
+    """A point of the lower envelope is an outlier where it lies more than ``drop`` m under the
+    ``rank``-th lowest of its ``k`` nearest envelope points; ``passes``: times the envelope is
+    taken again without the outliers found."""
+
+    k: int = 12
+    rank: int = 3
+    drop: float = 3.0
+    passes: int = 2
+
+
 def low_outliers(
     xyz: NDArray[np.float64],
     *,
-    k: int = 12,
-    rank: int = 3,
-    drop: float = 3.0,
-    passes: int = 2,
     density: float | None = None,
     envelope_points: float = 16.0,
+    test: OutlierTest = OutlierTest(),
+    by_height: NDArray[np.intp] | None = None,
 ) -> NDArray[np.bool_]:
     """Mask of points lower than the ``rank``-th lowest of the ``k`` nearest points of the lower
-    envelope by more than ``drop`` m.
+    envelope by more than ``drop`` m (:class:`OutlierTest`). ``by_height``: the points' stable
+    order by height, where the caller has it (:func:`tdb.sort.by_group`).
 
     The lower envelope is the lowest point of each cell of a grid sized to hold about
     ``envelope_points`` points at ``density`` (points per m²; None measures it on ``xyz``; a
@@ -63,11 +74,13 @@ def low_outliers(
     """
     xyz = np.asarray(xyz, float)
     out = np.zeros(len(xyz), bool)
+    k, rank, drop = test.k, test.rank, test.drop
     if len(xyz) <= k:
         return out
     density = density or point_density(xyz[:, :2])
-    cells = CellSort.of(Grid.covering(xyz[:, :2], float(np.sqrt(envelope_points / density))), xyz)
-    for _ in range(passes):
+    grid = Grid.covering(xyz[:, :2], float(np.sqrt(envelope_points / density)))
+    cells = CellSort.of(grid, xyz, by_height=by_height)
+    for _ in range(test.passes):
         lowest = cells.lowest(~out)
         envelope = lowest[lowest >= 0]
         if len(envelope) <= k:
