@@ -226,14 +226,12 @@ def _pattern_weights(
 
 
 def _pattern_codes(known: NDArray[np.bool_]) -> NDArray[np.int64]:
-    """Each row's pattern of known cells (T, n ≤ 62) as one integer, bit i for cell i: by a
-    float product where the codes are exact in a double (numpy's integer products do not use
-    BLAS)."""
-    n = known.shape[1]
-    if n > 52:
-        return known.astype(np.int64) @ (np.int64(1) << np.arange(n, dtype=np.int64))
-    with one_blas_thread():  # see tdb.threads
-        return (known @ (2.0 ** np.arange(n))).astype(np.int64)
+    """Each row's pattern of known cells (T, n ≤ 62) as one integer, bit i for cell i: the bits
+    packed eight to a byte, the bytes read as one little-endian integer."""
+    packed = np.packbits(known, axis=1, bitorder="little")
+    out = np.zeros((len(known), 8), np.uint8)
+    out[:, : packed.shape[1]] = packed
+    return out.view("<i8")[:, 0].astype(np.int64)
 
 
 def fill_lines_stack(

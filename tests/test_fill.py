@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from tdb.fill import nearest_adjacent, nearest_index
+from tdb.fill import _pattern_codes, nearest_adjacent, nearest_index
 
 
 @settings(max_examples=80, deadline=None)
@@ -36,3 +36,11 @@ def test_a_raster_with_far_holes_falls_back_to_the_transform():
     holes[0, 0] = holes[8, 3] = False
     ri, ci = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
     np.testing.assert_array_equal(np.stack(nearest_index(holes)), np.stack((ri, ci)))
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(0, 62), rows=st.integers(0, 20), seed=st.integers(0, 2**16))
+def test_a_pattern_code_holds_bit_i_for_cell_i(n, rows, seed):
+    known = np.random.default_rng(seed).random((rows, n)) < 0.5
+    expected = [sum(1 << i for i in np.flatnonzero(r)) for r in known]
+    assert _pattern_codes(known).tolist() == expected
