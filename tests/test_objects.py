@@ -218,6 +218,22 @@ def test_building_footprints_match_the_truth(scene_objects) -> None:
         assert found.buildings[0].height > 2
 
 
+def test_footprints_settled_without_a_search_are_the_searched_ones(scene_objects, monkeypatch) -> None:
+    from ingest.objects import buildings
+
+    _, cloud, _, _, found = scene_objects
+    settled = buildings._Returns.settled
+
+    def nothing_settled(self, k, rows, cols):
+        done, mine = settled(self, k, rows, cols)
+        assert done.any()  # the shortcut is taken on these roofs
+        return np.zeros_like(done), mine
+
+    monkeypatch.setattr(buildings._Returns, "settled", nothing_settled)
+    searched = buildings.find_buildings(cloud.xyz, found.cover)
+    assert [b.footprint.wkb for b in searched] == [b.footprint.wkb for b in found.buildings]
+
+
 def test_trees_found_with_their_height_and_crown(scene_objects) -> None:
     from benchmarks.objects_score import score_trees
 
