@@ -8,6 +8,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from tdb.errors import InputError
+
 
 def by_group(
     group: NDArray[np.integer[Any]],
@@ -33,12 +35,12 @@ def order_within(order: NDArray[np.intp], subset: NDArray[np.intp], n: int) -> N
 
     Raises
     ------
-    ValueError
+    InputError
         If ``subset`` is not ascending (ties would then fall in another order).
     """
     subset = np.asarray(subset, np.intp)
     if len(subset) > 1 and (np.diff(subset) <= 0).any():
-        raise ValueError("subset must be ascending")
+        raise InputError("subset must be ascending")
     place = np.full(n, -1, np.intp)
     place[subset] = np.arange(len(subset))
     inside = place[order]
@@ -55,6 +57,11 @@ def scatter_max(out: NDArray[Any], index: NDArray[np.integer[Any]], values: NDAr
     (whichever value a repeated index keeps, the cell only rises); on typical orders a handful
     of passes over fewer and fewer values is done, and what an adversarial order leaves after
     :data:`_PASSES` goes to the ufunc. Values with NaN go to the ufunc at once, which keeps them.
+
+    Raises
+    ------
+    InputError
+        If ``out`` is not one block of memory (its flat view would be a copy).
     """
     _scatter(out, index, values, np.greater, np.maximum)
 
@@ -67,7 +74,7 @@ def scatter_min(out: NDArray[Any], index: NDArray[np.integer[Any]], values: NDAr
 def _scatter(out: NDArray[Any], index: NDArray[Any], values: NDArray[Any], beats: Any, ufunc: Any) -> None:
     flat = out.reshape(-1)
     if not np.shares_memory(flat, out):
-        raise ValueError("out must be contiguous")
+        raise InputError("out must be contiguous")
     index, values = np.asarray(index), np.asarray(values)
     if values.dtype.kind == "f" and np.isnan(values).any():
         ufunc.at(flat, index, values)
