@@ -73,12 +73,31 @@ class Token:
     pos: int
 
 
+def _quoting_hint(before: list[Token], text: str, pos: int) -> str:
+    """Where the character at ``pos`` interrupts a version's name after FROM or TO (a name such
+    as ``survey-2020``), how to write the name."""
+    if len(before) < 2 or before[-2].kind != "kw" or before[-2].text not in ("from", "to"):
+        return ""
+    name = before[-1]
+    if name.kind not in ("name", "number") or name.pos + len(name.text) != pos:
+        return ""
+    return _quoted(before[-2].text, text, name.pos)
+
+
+def _quoted(keyword: str, text: str, start: int) -> str:
+    """The hint that the version name starting at ``start`` is written in double quotes."""
+    whole = text[start:].split()[0]
+    return f' (a version name holding it is written in double quotes: {keyword.upper()} "{whole}")'
+
+
 def tokenize(text: str) -> list[Token]:
     out, pos = [], 0
     while pos < len(text):
         m = TOKEN.match(text, pos)
         if not m:
-            raise QueryError(f"unexpected character {text[pos]!r}", text=text, position=pos)
+            raise QueryError(
+                f"unexpected character {text[pos]!r}{_quoting_hint(out, text, pos)}", text=text, position=pos
+            )
         kind = m.lastgroup or ""
         if kind != "ws":
             value = m.group()
@@ -182,6 +201,14 @@ class _Parser:
         t = self.peek()
         if t.kind in ("name", "number"):
             self.i += 1
+            after = self.peek()
+            if after.kind != "end" and after.pos == t.pos + len(t.text):  # a name such as survey-2020
+                keyword = self.tokens[self.i - 2].text
+                raise QueryError(
+                    f"unexpected {after.text!r} in a version name{_quoted(keyword, self.text, t.pos)}",
+                    text=self.text,
+                    position=after.pos,
+                )
             return t.text
         raise self.error("expected a version name")
 

@@ -59,6 +59,17 @@ def test_parse_errors_locate_the_problem(text, line, column):
     assert "^" in str(info.value)
 
 
+def test_a_version_name_that_needs_quotes_is_shown_quoted():
+    with pytest.raises(QueryError, match='double quotes: FROM "survey-2020"'):
+        parse("SELECT ditch FROM survey-2020 WHERE depth > 1")
+    with pytest.raises(QueryError, match=r'TO "b\.2"'):
+        parse("SELECT changes FROM a TO b.2")
+    with pytest.raises(QueryError) as info:
+        parse("SELECT ditch FROM a WHERE depth >= 0.5 ; x")
+    assert "quotes" not in str(info.value)
+    assert parse('SELECT ditch FROM "survey-2020"').version == "survey-2020"
+
+
 @settings(max_examples=300, deadline=None)
 @given(st.text(max_size=80))
 def test_any_text_parses_or_raises_query_error(text):
