@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from tdb.fill import _pattern_codes, nearest_adjacent, nearest_index
+from tdb.fill import _pattern_codes, fill_nearest, nearest_adjacent, nearest_index
 
 
 @settings(max_examples=80, deadline=None)
@@ -44,3 +44,20 @@ def test_a_pattern_code_holds_bit_i_for_cell_i(n, rows, seed):
     known = np.random.default_rng(seed).random((rows, n)) < 0.5
     expected = [sum(1 << i for i in np.flatnonzero(r)) for r in known]
     assert _pattern_codes(known).tolist() == expected
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    rows=st.integers(1, 25),
+    cols=st.integers(1, 25),
+    share=st.floats(0.05, 1.0),
+    asked=st.floats(0.0, 1.0),
+    seed=st.integers(0, 2**16),
+)
+def test_a_fill_asked_for_some_cells_gives_them_the_whole_fills_values(rows, cols, share, asked, seed):
+    rng = np.random.default_rng(seed)
+    raster = np.where(rng.random((rows, cols)) < share, rng.normal(size=(rows, cols)), np.nan)
+    if np.isnan(raster).all():
+        raster[0, 0] = 1.0
+    where = rng.random((rows, cols)) < asked
+    np.testing.assert_array_equal(fill_nearest(raster, where=where)[where], fill_nearest(raster)[where])
