@@ -91,7 +91,8 @@ def _quoted(keyword: str, text: str, start: int) -> str:
 
 
 def tokenize(text: str) -> list[Token]:
-    out, pos = [], 0
+    out: list[Token] = []
+    pos = 0
     while pos < len(text):
         m = TOKEN.match(text, pos)
         if not m:
