@@ -29,12 +29,29 @@ def fill_nearest(
     InputError
         If the raster has no filled cell.
     """
-    if where is not None:
-        holes = np.isnan(raster)
-        if holes.any() and not holes.all() and _beside_filled(~holes)[where].all():
-            near = nearest_adjacent(~holes)
-            return np.where(near >= 0, raster.ravel()[np.maximum(near, 0)], np.nan)
-    return NearestFill()(raster)
+    holes = _holes_of(raster)
+    if holes is None:
+        return raster
+    near = nearest_cells(holes, where=where)
+    if where is None:
+        return raster.ravel()[near]
+    return np.where(near >= 0, raster.ravel()[np.maximum(near, 0)], np.nan)
+
+
+def _holes_of(raster: NDArray[np.floating[Any]]) -> NDArray[np.bool_] | None:
+    """The raster's NaN cells, None where it has none.
+
+    Raises
+    ------
+    InputError
+        If the raster has no filled cell.
+    """
+    holes = np.isnan(raster)
+    if not holes.any():
+        return None
+    if holes.all():
+        raise InputError("raster has no data to fill from")
+    return holes
 
 
 # The 8 neighbours in the order scipy's feature transform prefers among equally near filled cells:
@@ -57,14 +74,16 @@ def nearest_adjacent(filled: NDArray[np.bool_]) -> NDArray[np.intp]:
     return out
 
 
-def nearest_index(holes: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """The row and column of the nearest filled cell to each cell (itself where filled), as
-    :func:`scipy.ndimage.distance_transform_edt`'s indices: from the 8 neighbours where every
-    hole has a filled one, else by the transform."""
-    if _beside_filled(~holes).all():
-        return np.divmod(nearest_adjacent(~holes), holes.shape[1])
+def nearest_cells(holes: NDArray[np.bool_], *, where: NDArray[np.bool_] | None = None) -> NDArray[np.intp]:
+    """The flat index of the nearest filled cell to each cell (itself where filled), as
+    :func:`scipy.ndimage.distance_transform_edt`'s indices pick it: from the 8 neighbours where
+    every cell of ``where`` (None: every cell) has a filled one, else by the transform. From the
+    neighbours, a cell outside ``where`` with none of them filled reads −1."""
+    beside = _beside_filled(~holes)
+    if (beside if where is None else beside[where]).all():
+        return nearest_adjacent(~holes)
     ri, ci = ndimage.distance_transform_edt(holes, return_distances=False, return_indices=True)
-    return ri, ci
+    return np.asarray(ri * holes.shape[1] + ci, np.intp)
 
 
 def _beside_filled(filled: NDArray[np.bool_]) -> NDArray[np.bool_]:
@@ -82,18 +101,15 @@ class NearestFill:
 
     def __init__(self) -> None:
         self._holes: NDArray[np.bool_] | None = None
-        self._index: tuple[NDArray[np.int32], NDArray[np.int32]] | None = None
+        self._index: NDArray[np.intp] | None = None
 
     def __call__(self, raster: NDArray[np.floating[Any]]) -> NDArray[np.floating[Any]]:
-        holes = np.isnan(raster)
-        if not holes.any():
+        holes = _holes_of(raster)
+        if holes is None:
             return raster
-        if holes.all():
-            raise InputError("raster has no data to fill from")
         if self._index is None or self._holes is None or not np.array_equal(self._holes, holes):
-            ri, ci = nearest_index(holes)
-            self._holes, self._index = holes, (ri.astype(np.int32), ci.astype(np.int32))
-        return raster[self._index]
+            self._holes, self._index = holes, nearest_cells(holes)
+        return raster.ravel()[self._index]
 
 
 def across_rows(

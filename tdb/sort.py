@@ -20,10 +20,10 @@ def by_group(
     """The order ``np.lexsort((key, group))`` gives: by ``group`` (integers), then by ``key``, of
     equal ones the first first.
 
-    A stable sort by group of the points in key order: numpy sorts integers stably by radix,
-    several times faster than its lexsort's merge sorts. ``key_order``: ``np.argsort(key,
-    kind="stable")`` where the caller has it (one order by height serves every grid's cells:
-    :func:`order_within`).
+    A stable sort by group of the points in key order: one sort of the groups (numpy's timsort,
+    quick where groups come in runs), where lexsort merge-sorts twice. ``key_order``:
+    ``np.argsort(key, kind="stable")`` where the caller has it (one order by height serves every
+    grid's cells: :func:`order_within`).
     """
     order = np.argsort(key, kind="stable") if key_order is None else np.asarray(key_order, np.intp)
     return order[np.argsort(np.asarray(group)[order], kind="stable")]

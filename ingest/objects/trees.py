@@ -86,13 +86,13 @@ def find_trees(cloud: PointCloud, cover: Cover, *, params: TreeParams | None = N
         return []
     grid = Grid.covering(cloud.xyz[tall, :2], cell_size(cover.spacing, spacings=p.cell_spacings))
     near = _inside(grid, cloud.xyz[:, :2]) & np.isfinite(cover.height)
-    filled = np.bincount(flat_cells(grid, cloud.xyz[:, :2])[near], minlength=grid.shape[0] * grid.shape[1]) > 0
+    cell = flat_cells(grid, cloud.xyz[:, :2])
+    filled = np.bincount(cell[near], minlength=grid.shape[0] * grid.shape[1]) > 0
     # A cell's highest return is a crown's only where some return there stands as high as the
     # crowns' returns do: the rasters are made of those (most returns are lower), the rest
     # only fill their cells.
     high = np.flatnonzero(near & (cover.height >= cover.height[tall].min()))
-    xyz = cloud.xyz[high]
-    cells = flat_cells(grid, xyz[:, :2])
+    xyz, cells = cloud.xyz[high], cell[high]
     top = TopRaster.of(grid, xyz[:, :2], cover.height[high], cells=cells)
     mask = _crown_cells(top, tall[high], filled.reshape(grid.shape))
     canopy = crown_surface(np.where(mask, top.height, np.nan), mask, grid.cell, params=p)
